@@ -1,0 +1,42 @@
+//! # mpm-dt: time steps for explicit Material Point Method solvers
+//!
+//! Explicit MPM codes usually pick `dt` from a speed-of-sound (CFL) rule with a hand-tuned
+//! factor. This crate chooses the step from the method's own error and stability analysis,
+//! following M. Berzins, *Time stepping with space and time errors and stability of the
+//! Material Point Method* (equation numbers in these docs refer to that paper).
+//!
+//! ## The parts
+//!
+//! * [`stepper`] — the object-safe [`Stepper`] trait a solver implements: trial step,
+//!   accept, reject (bit-for-bit rollback), and a read-only [`View`] of particle fields,
+//!   nodal fields, material tangent moduli and the weight matrices `S`, `D`.
+//! * [`limit`] — the object-safe [`StepLimit`] trait: propose a step, judge a trial.
+//! * [`grid`], [`shape`], [`weights`] — the 1D background grid, GIMP and linear-hat
+//!   basis functions, and the `S`/`D` matrices in fixed-width particle-major storage.
+//! * [`mpm`] — the reference 1D update-stress-last solver (eqs 17–29).
+//! * [`scenario`] — serde scenario files with validation.
+//! * [`problems`] — problems with exact solutions (the vibrating bar).
+//! * [`estimators`] — the spatial error estimators of Section 4 (eqs 31–44).
+//! * [`stability`] — the sound-speed limit (eq 49), the eq 56 amplification operator and
+//!   its tracked λmax, the eq 58 bound, and exact critical steps for verification.
+//! * [`controller`] — the adaptive controller combining the limits.
+//!
+//! The library logs through `tracing` and never installs a subscriber.
+
+pub mod controller;
+pub mod estimators;
+pub mod grid;
+pub mod limit;
+pub mod mpm;
+pub mod problems;
+pub mod scenario;
+pub mod shape;
+pub mod stability;
+pub mod stepper;
+pub mod weights;
+
+pub use grid::{Boundary, Grid};
+pub use limit::{Judgement, LimitError, Metrics, Proposal, RejectCause, StepLimit, Verdict};
+pub use shape::Shape;
+pub use stepper::{StepError, Stepper, View};
+pub use weights::{WeightKind, Weights};

@@ -1,0 +1,152 @@
+//! The object-safe [`StepLimit`] trait: one constraint on the time step.
+//!
+//! Following SUNDIALS' adaptivity controllers, *proposing* a step and *recording* an
+//! accepted one are separate calls. Per attempt the controller
+//!
+//! 1. asks every limit to [`StepLimit::propose`] a step from the committed state and takes
+//!    the smallest (and `dt_max`, and what is left to `t_end`);
+//! 2. lets the stepper compute a trial with that step;
+//! 3. asks every limit to [`StepLimit::judge`] the trial against the committed state;
+//! 4. accepts if every verdict is [`Verdict::Accept`] — then calls
+//!    [`StepLimit::accepted`] on each — or rejects, calling [`StepLimit::rejected`].
+//!
+//! Limits report numbers they computed (λmax, the eq 58 value, `dsm`, …) as named
+//! [`Metrics`], which the controller copies into its decision log.
+
+use crate::stepper::View;
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+/// Named diagnostic numbers a limit computed (e.g. `"lambda_max"`, `"bound58"`, `"dsm"`).
+pub type Metrics = BTreeMap<String, f64>;
+
+/// A limit's proposal for the next step.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Proposal {
+    /// The largest step this limit allows; `f64::INFINITY` when it has no opinion.
+    pub dt: f64,
+    /// Diagnostics computed on the way.
+    pub metrics: Metrics,
+}
+
+/// Why a trial was rejected.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+#[non_exhaustive]
+pub enum RejectCause {
+    /// The temporal local error estimate exceeded its tolerance (eqs 20–30).
+    Error,
+    /// A stability check failed (eq 58, or a stability proposal violated).
+    Stability,
+    /// Growth of the solution over a window of steps (slow instability).
+    Growth,
+    /// The trial produced NaN or infinite values, or the stepper failed.
+    NonFinite,
+    /// A user-supplied limit vetoed the step.
+    UserVeto,
+}
+
+impl std::fmt::Display for RejectCause {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            RejectCause::Error => "error",
+            RejectCause::Stability => "stability",
+            RejectCause::Growth => "growth",
+            RejectCause::NonFinite => "non_finite",
+            RejectCause::UserVeto => "user_veto",
+        })
+    }
+}
+
+/// A limit's verdict on a trial step.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Verdict {
+    /// The trial is acceptable to this limit.
+    Accept,
+    /// The trial must be rejected.
+    Reject {
+        /// Why.
+        cause: RejectCause,
+        /// A step this limit expects to accept, if it can tell.
+        suggested_dt: Option<f64>,
+    },
+}
+
+/// A verdict and the diagnostics behind it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Judgement {
+    /// Accept or reject.
+    pub verdict: Verdict,
+    /// Diagnostics computed while judging.
+    pub metrics: Metrics,
+}
+
+impl Judgement {
+    /// An acceptance with no diagnostics.
+    pub fn accept() -> Self {
+        Self {
+            verdict: Verdict::Accept,
+            metrics: Metrics::new(),
+        }
+    }
+}
+
+/// A limit failed to evaluate (bad state, not a rejected step).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum LimitError {
+    /// The state holds a value the limit cannot work with.
+    #[error("limit {limit}: invalid {field} at index {index} (value {value}) at t = {t}")]
+    InvalidState {
+        /// The limit's name.
+        limit: String,
+        /// Which field.
+        field: &'static str,
+        /// Particle or node index.
+        index: usize,
+        /// The offending value.
+        value: f64,
+        /// Time of the state.
+        t: f64,
+    },
+    /// Anything else, described.
+    #[error("limit {limit}: {message}")]
+    Other {
+        /// The limit's name.
+        limit: String,
+        /// What went wrong.
+        message: String,
+    },
+}
+
+/// One constraint on the time step. Object safe: the controller holds
+/// `Box<dyn StepLimit>`.
+pub trait StepLimit {
+    /// Short stable name used in logs and statistics (e.g. `"sound_speed"`).
+    fn name(&self) -> &str;
+
+    /// The largest step this limit allows from the committed state `state`.
+    fn propose(&mut self, state: &View<'_>) -> Result<Proposal, LimitError>;
+
+    /// Judges a trial of step `dt` from `before` (committed) to `after` (trial).
+    fn judge(
+        &mut self,
+        before: &View<'_>,
+        after: &View<'_>,
+        dt: f64,
+    ) -> Result<Judgement, LimitError> {
+        let _ = (before, after, dt);
+        Ok(Judgement::accept())
+    }
+
+    /// Records an accepted step (update histories, warm starts).
+    fn accepted(&mut self, before: &View<'_>, after: &View<'_>, dt: f64) {
+        let _ = (before, after, dt);
+    }
+
+    /// Records a rejected attempt of step `dt` and its cause.
+    fn rejected(&mut self, dt: f64, cause: RejectCause) {
+        let _ = (dt, cause);
+    }
+}

@@ -1,0 +1,163 @@
+//! The object-safe [`Stepper`] trait: what the library needs of an explicit MPM solver.
+//!
+//! A stepper holds a *committed* state at time `tⁿ`. [`Stepper::try_step`] computes a *trial*
+//! state at `tⁿ + dt` beside it (double buffering); the caller inspects both through
+//! [`Stepper::view`] and [`Stepper::trial_view`] and then either [`Stepper::accept`]s the trial
+//! (it becomes the committed state) or [`Stepper::reject`]s it (the committed state is left
+//! exactly as it was, bit for bit, because it was never written).
+//!
+//! The [`View`] is read-only and made of slices, so that any solver — the reference
+//! [`crate::mpm`] solver or a user's own — can expose its fields without copying. A view
+//! describes one state: particle fields at the particle positions, the weights `S`, `D`
+//! evaluated *at those positions*, and the nodal fields obtained from them by eq 7 (mass),
+//! eq 17 (velocity) and eq 18 (acceleration). These are exactly the quantities the next step
+//! from that state uses, and what the estimators of Section 4 and the stability analysis of
+//! Section 6 read.
+
+use crate::grid::Grid;
+use crate::weights::Weights;
+
+/// A read-only view of one state of a 1D MPM solver. All slices of particle fields have
+/// the same length (number of particles), all nodal slices `grid.n_nodes()`.
+#[derive(Clone, Copy, Debug)]
+pub struct View<'a> {
+    /// Time `t` of this state.
+    pub t: f64,
+    /// Number of accepted steps that led to this state (`n` in `tⁿ`).
+    pub step: u64,
+    /// The background grid (spacing `h`, boundary, node positions).
+    pub grid: &'a Grid,
+    /// Particle positions `x_p`.
+    pub x: &'a [f64],
+    /// Particle velocities `v_p`.
+    pub v: &'a [f64],
+    /// Particle (Cauchy) stresses `σ_p`.
+    pub sigma: &'a [f64],
+    /// Deformation gradients `F_p` (eq 8).
+    pub f: &'a [f64],
+    /// Initial particle volumes `V_p⁰` (eq 8; current volume is `F_p V_p⁰`).
+    pub volume0: &'a [f64],
+    /// Particle masses `m_p`.
+    pub mass: &'a [f64],
+    /// Material tangent modulus `E_t = ∂σ/∂(ln F)` per particle: the `E` of eqs 16, 27 and
+    /// 56 for this particle (equal to `E` for linear elasticity).
+    pub tangent_modulus: &'a [f64],
+    /// Current density `ρ_p = m_p/(F_p V_p⁰)`.
+    pub density: &'a [f64],
+    /// `S_ip` and `D_ip` at the particle positions of this state.
+    pub weights: &'a Weights,
+    /// Nodal masses `m_i` (eq 7).
+    pub node_mass: &'a [f64],
+    /// Nodal velocities `v_i` (eq 17); zero at inactive and constrained nodes.
+    pub node_velocity: &'a [f64],
+    /// Nodal accelerations `a_i` (eq 18); zero at inactive and constrained nodes.
+    pub node_acceleration: &'a [f64],
+    /// Whether a node is active: not constrained, and mass above the solver's threshold.
+    pub node_active: &'a [bool],
+}
+
+impl View<'_> {
+    /// Number of particles.
+    pub fn n_particles(&self) -> usize {
+        self.x.len()
+    }
+
+    /// Number of nodes.
+    pub fn n_nodes(&self) -> usize {
+        self.node_mass.len()
+    }
+
+    /// Longitudinal wave speed of particle `p`, `c_p = √(E_t/ρ)`.
+    pub fn wave_speed(&self, p: usize) -> f64 {
+        (self.tangent_modulus[p] / self.density[p]).sqrt()
+    }
+}
+
+/// Why a trial step failed. The committed state is untouched in every case.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum StepError {
+    /// `dt` is not a positive finite number.
+    #[error("invalid time step dt = {dt} at t = {t}")]
+    InvalidDt {
+        /// The offending step.
+        dt: f64,
+        /// Time of the committed state.
+        t: f64,
+    },
+    /// A trial produced a NaN or infinite value.
+    #[error("non-finite {field} at particle {index} in the trial from t = {t} (step {step}) with dt = {dt}")]
+    NonFinite {
+        /// Which field (`"x"`, `"v"`, `"sigma"`, `"F"`).
+        field: &'static str,
+        /// Particle index of the first offending value.
+        index: usize,
+        /// Time of the committed state the trial started from.
+        t: f64,
+        /// Number of accepted steps before the trial.
+        step: u64,
+        /// The trial's step.
+        dt: f64,
+    },
+    /// A particle left a non-periodic domain.
+    #[error("particle {index} left the domain (x = {x}) in the trial from t = {t} (step {step}) with dt = {dt}")]
+    OutOfDomain {
+        /// Particle index.
+        index: usize,
+        /// Its trial position.
+        x: f64,
+        /// Time of the committed state.
+        t: f64,
+        /// Number of accepted steps before the trial.
+        step: u64,
+        /// The trial's step.
+        dt: f64,
+    },
+    /// A deformation gradient became non-positive (material inverted).
+    #[error("particle {index} inverted (F = {f}) in the trial from t = {t} (step {step}) with dt = {dt}")]
+    Inverted {
+        /// Particle index.
+        index: usize,
+        /// Its trial deformation gradient.
+        f: f64,
+        /// Time of the committed state.
+        t: f64,
+        /// Number of accepted steps before the trial.
+        step: u64,
+        /// The trial's step.
+        dt: f64,
+    },
+    /// `accept` was called with no trial pending.
+    #[error("accept() called with no trial step pending")]
+    NoTrial,
+    /// A solver-specific failure (for users' steppers).
+    #[error("{0}")]
+    Other(String),
+}
+
+/// An explicit MPM solver as the controller drives it. Object safe: the controller takes
+/// `&mut dyn Stepper`.
+pub trait Stepper {
+    /// Time of the committed state.
+    fn time(&self) -> f64;
+
+    /// Number of accepted steps so far.
+    fn step_count(&self) -> u64;
+
+    /// Computes a trial state at `time() + dt` from the committed state, replacing any
+    /// previous trial. On error no trial is pending and the committed state is unchanged.
+    fn try_step(&mut self, dt: f64) -> Result<(), StepError>;
+
+    /// Makes the pending trial the committed state.
+    fn accept(&mut self) -> Result<(), StepError>;
+
+    /// Discards the pending trial (no-op if none): the committed state is bit-identical to
+    /// what it was before `try_step`.
+    fn reject(&mut self);
+
+    /// The committed state.
+    fn view(&self) -> View<'_>;
+
+    /// The pending trial state, if any.
+    fn trial_view(&self) -> Option<View<'_>>;
+}
