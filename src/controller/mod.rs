@@ -71,8 +71,9 @@ pub enum ControllerError {
         /// The last decision.
         last: Box<Decision>,
     },
-    /// The step would fall below `dt_min`.
-    #[error("step {dt} below dt_min = {dt_min} at t = {t} (bound by {binding})")]
+    /// The step would fall below `dt_min`, or be too small to advance `t` in floating
+    /// point (below 64 ulps of `t`).
+    #[error("step {dt} too small (dt_min = {dt_min}) at t = {t} (bound by {binding})")]
     StepTooSmall {
         /// The step the rules gave.
         dt: f64,
@@ -413,7 +414,10 @@ impl Controller {
                 dt = dt.next_down();
             }
             let last_step = binding == bound::T_END;
-            if dt.is_nan() || dt <= 0.0 || (dt < self.config.dt_min && !last_step) {
+            // A step that cannot move `t` (below 64 ulps of t) is as fatal as one below
+            // dt_min (SUNDIALS: "t + h = t").
+            let stalls = dt < 64.0 * f64::EPSILON * t.abs();
+            if dt.is_nan() || dt <= 0.0 || ((dt < self.config.dt_min || stalls) && !last_step) {
                 return Err(ControllerError::StepTooSmall {
                     dt,
                     dt_min: self.config.dt_min,

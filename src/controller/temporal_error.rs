@@ -27,9 +27,14 @@
 //! w_u,p = atol_u + atol_rel · ‖u‖_∞ + rtol · max(|u_p^n|, |u_p^{n+1}|)
 //! ```
 //!
-//! where `‖u‖_∞` is the largest magnitude of the field over the particles in the committed,
-//! trial and previous states (so the weight is not zero at a zero crossing of one
-//! particle). `dsm ≤ 1` accepts; the controller's filter turns `dsm` into the next step.
+//! where `‖u‖_∞` is the field's scale: the largest magnitude over the particles in the
+//! committed, trial and previous states, in *energy-equivalent* units — a vibrating body
+//! swaps its energy between `v` and `σ`, so the velocity scale is at least
+//! `max_p |σ_p|/(ρc)_p` and the stress scale at least `max_p (ρc)_p |v_p|`, with the
+//! acoustic impedance `ρc = √(E_t ρ)`. Without this, a field that starts at zero (the stress
+//! of a released standing wave) would be judged relative to its own `O(dt)` size. The
+//! weight is never zero at a zero crossing of one particle. `dsm ≤ 1` accepts; the
+//! controller's filter turns `dsm` into the next step.
 //!
 //! Interpretations, documented here because the paper leaves them open:
 //! * Eq 26 (`F`) is not measured separately: for the elastic laws `σ` is a function of
@@ -222,8 +227,27 @@ impl TemporalError {
             .history
             .as_ref()
             .map_or((0.0, 0.0), |h| (h.v_scale, h.sigma_scale));
-        let v_scale = inf_norm(before.v).max(inf_norm(after.v));
-        let sigma_scale = inf_norm(before.sigma).max(inf_norm(after.sigma));
+        // Energy-equivalent scales: |σ| ↔ ρc|v| (acoustic impedance ρc = √(E_t ρ)).
+        let mut v_scale = inf_norm(before.v).max(inf_norm(after.v));
+        let mut sigma_scale = inf_norm(before.sigma).max(inf_norm(after.sigma));
+        let (mut v_from_s, mut s_from_v) = (0.0_f64, 0.0_f64);
+        for (p, (&e, &rho)) in before
+            .tangent_modulus
+            .iter()
+            .zip(before.density)
+            .enumerate()
+            .take(n)
+        {
+            let z = (e * rho).sqrt();
+            if z.is_finite() && z > 0.0 {
+                let v = before.v[p].abs().max(after.v[p].abs());
+                let sg = before.sigma[p].abs().max(after.sigma[p].abs());
+                v_from_s = v_from_s.max(sg / z);
+                s_from_v = s_from_v.max(v * z);
+            }
+        }
+        v_scale = v_scale.max(v_from_s);
+        sigma_scale = sigma_scale.max(s_from_v);
         let c = &self.config;
         let half_dt2 = 0.5 * dt * dt;
         let term = |le: f64, w: f64| -> f64 {
