@@ -32,9 +32,11 @@
 mod material;
 mod reference;
 mod setup;
+mod snapshot;
 mod state;
 mod step;
 
 pub use material::Material;
 pub use reference::{ReferenceStepper, INACTIVE_MASS_FRACTION};
 pub use setup::{ParticleInit, SetupError};
+pub use snapshot::{Snapshot, SnapshotError};

@@ -2,6 +2,7 @@
 
 use super::material::Material;
 use super::setup::{ParticleInit, SetupError};
+use super::snapshot::{Snapshot, SnapshotError};
 use super::state::State;
 use super::step::{advance, deposit_state, Ctx, Failure, Workspace};
 use crate::grid::Grid;
@@ -166,6 +167,58 @@ impl ReferenceStepper {
             .zip(&self.committed.v)
             .map(|(&m, &v)| m * v)
             .sum()
+    }
+
+    /// The committed state as serde data (for checkpoints); see [`Snapshot`].
+    pub fn snapshot(&self) -> Snapshot {
+        let c = &self.committed;
+        Snapshot {
+            t: c.t,
+            step: c.step,
+            x: c.x.clone(),
+            v: c.v.clone(),
+            sigma: c.sigma.clone(),
+            f: c.f.clone(),
+            node_mass: c.node_mass.clone(),
+            node_velocity: c.node_velocity.clone(),
+            node_acceleration: c.node_acceleration.clone(),
+        }
+    }
+
+    /// Replaces the committed state by a snapshot (any pending trial is dropped). The
+    /// solver must have been built from the same scenario (particle count, grid).
+    pub fn restore_snapshot(&mut self, s: Snapshot) -> Result<(), SnapshotError> {
+        let (np, nn) = (self.mass.len(), self.grid.n_nodes());
+        for (field, len, expected) in [
+            ("x", s.x.len(), np),
+            ("v", s.v.len(), np),
+            ("sigma", s.sigma.len(), np),
+            ("f", s.f.len(), np),
+            ("node_mass", s.node_mass.len(), nn),
+            ("node_velocity", s.node_velocity.len(), nn),
+            ("node_acceleration", s.node_acceleration.len(), nn),
+        ] {
+            if len != expected {
+                return Err(SnapshotError {
+                    field,
+                    len,
+                    expected,
+                });
+            }
+        }
+        let c = &mut self.committed;
+        c.invalidate();
+        c.t = s.t;
+        c.step = s.step;
+        c.x = s.x;
+        c.v = s.v;
+        c.sigma = s.sigma;
+        c.f = s.f;
+        c.node_mass = s.node_mass;
+        c.node_velocity = s.node_velocity;
+        c.node_acceleration = s.node_acceleration;
+        self.trial_pending = false;
+        Ok(())
     }
 
     fn state_view<'a>(&'a self, s: &'a State) -> View<'a> {
