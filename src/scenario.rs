@@ -282,6 +282,12 @@ impl Scenario {
                 format!("{} must be in 1..={MAX_CELLS}", self.cells),
             ));
         }
+        if self.boundary == Boundary::Periodic && self.cells < 3 {
+            return Err(invalid(
+                "cells",
+                format!("{} cells: a periodic bar needs at least 3", self.cells),
+            ));
+        }
         positive("length", self.length)?;
         positive("youngs_modulus", self.youngs_modulus)?;
         positive("density", self.density)?;
