@@ -17,7 +17,8 @@ const E1: Material = Material::LinearElastic {
 fn bad_particle_data_are_setup_errors() {
     let grid = Grid::new(Boundary::Periodic, 8, 1.0);
     type Edit = fn(&mut ParticleInit);
-    let cases: [(&str, Edit, fn(&SetupError) -> bool); 9] = [
+    type Expected = fn(&SetupError) -> bool;
+    let cases: [(&str, Edit, Expected); 9] = [
         (
             "short v",
             |p| {
