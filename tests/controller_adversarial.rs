@@ -227,3 +227,14 @@ fn t_end_not_after_t_is_a_typed_error() {
         Err(ControllerError::InvalidEnd { .. })
     ));
 }
+
+#[test]
+fn open_ended_steps_with_infinite_t_end() {
+    let mut s = MockStepper::standing_wave(8, 2, 1.0, 1e-2, Shape::Gimp, 0.0, 1);
+    let mut c = Controller::new(ControllerConfig::default(), vec![sound(0.5)]).unwrap();
+    for _ in 0..5 {
+        let d = c.step(&mut s, f64::INFINITY).unwrap();
+        assert_eq!(d.last().unwrap().outcome, Outcome::Accepted);
+    }
+    assert_eq!(s.step_count(), 5);
+}

@@ -38,6 +38,7 @@ mod config;
 mod decision;
 mod filter;
 mod growth;
+mod scaled;
 mod stats;
 mod temporal_error;
 
@@ -48,6 +49,7 @@ pub use filter::{FilterPreset, SoderlindFilter, DSM_FLOOR};
 pub use growth::{
     checkerboard_share, total_energy, GrowthConfig, GrowthIndicator, GrowthMonitor, GROWTH,
 };
+pub use scaled::SafetyScaled;
 pub use stats::Stats;
 pub use temporal_error::{TemporalError, TemporalErrorConfig, TEMPORAL_ERROR};
 
@@ -157,7 +159,8 @@ impl std::fmt::Debug for Controller {
 
 /// Relative tolerance under which `t` counts as having reached `t_end`.
 fn reached(t: f64, t_end: f64) -> bool {
-    t >= t_end || (t_end - t) <= 4.0 * f64::EPSILON * t_end.abs().max(t.abs())
+    t >= t_end
+        || (t_end.is_finite() && (t_end - t) <= 4.0 * f64::EPSILON * t_end.abs().max(t.abs()))
 }
 
 /// Drops non-finite metrics (JSON cannot carry them).
