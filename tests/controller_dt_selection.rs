@@ -125,6 +125,7 @@ proptest! {
     #[test]
     fn dt_selection_rules_hold(c in case()) {
         let r = run(&c);
+        prop_assert!(!r.decisions.is_empty() || r.rejections_at_end.is_some(), "nothing happened");
         prop_assert!(r.times_ok, "t passed t_end");
         prop_assert!(r.finite_ok, "a non-finite state was accepted");
         let cfg = &r.config;

@@ -119,6 +119,8 @@ struct History {
 pub struct TemporalError {
     config: TemporalErrorConfig,
     history: Option<History>,
+    /// The rates of the last judged trial `(t, dt, rates)`, reused by `accepted`.
+    judged: Option<(f64, f64, History)>,
 }
 
 /// The name of the limit in logs and statistics.
@@ -135,6 +137,7 @@ impl TemporalError {
         Ok(Self {
             config,
             history: None,
+            judged: None,
         })
     }
 
@@ -307,7 +310,8 @@ impl StepLimit for TemporalError {
         after: &View<'_>,
         dt: f64,
     ) -> Result<Judgement, LimitError> {
-        let (dsm, dsm_v, dsm_s, _) = self.estimate(before, after, dt)?;
+        let (dsm, dsm_v, dsm_s, rates) = self.estimate(before, after, dt)?;
+        self.judged = Some((before.t, dt, rates));
         let mut metrics = Metrics::new();
         metrics.insert(metric::DSM.to_string(), dsm);
         metrics.insert("dsm_v".to_string(), dsm_v);
@@ -329,11 +333,22 @@ impl StepLimit for TemporalError {
     }
 
     fn accepted(&mut self, before: &View<'_>, after: &View<'_>, dt: f64) {
-        // The estimate was computed in `judge` on the same views; recompute the rates (cheap,
-        // O(N)) rather than caching a trial that might not be the accepted one.
-        if let Ok((_, _, _, h)) = self.estimate(before, after, dt) {
-            self.history = Some(h);
+        // Reuse the rates of the judged trial when it is this one (same start time and
+        // step); otherwise recompute them.
+        match self.judged.take() {
+            Some((t, d, h)) if t.to_bits() == before.t.to_bits() && d.to_bits() == dt.to_bits() => {
+                self.history = Some(h);
+            }
+            _ => {
+                if let Ok((_, _, _, h)) = self.estimate(before, after, dt) {
+                    self.history = Some(h);
+                }
+            }
         }
+    }
+
+    fn rejected(&mut self, _dt: f64, _cause: RejectCause) {
+        self.judged = None;
     }
 
     fn save_state(&self) -> Option<serde_json::Value> {
