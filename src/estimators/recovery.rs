@@ -4,7 +4,8 @@
 //!
 //! * [`Recovery::Mapped`] — the paper's way (Section 4.3): map the particle values to the
 //!   nodes with eq 17 (`u_i = Σ_p S_ip m_p u_p / m_i`), then difference them with eqs 42/43
-//!   ([`nodal_derivatives`](super::derivatives::nodal_derivatives)) over the active nodes.
+//!   ([`nodal_derivatives`](super::derivatives::nodal_derivatives)) over the active nodes
+//!   that the grid does not constrain (values at walls are extrapolated).
 //!   Exact enough on uniform layouts, where the eq 17 error is a smooth function of `X_i`
 //!   and differencing it costs nothing in order. On non-uniform layouts the eq 17 error is
 //!   `O(h)` and changes from node to node, and a `k`-th difference amplifies it by `h⁻ᵏ`:
@@ -52,6 +53,30 @@ impl Recovery {
         layout: &Layout<'_>,
         u: &[f64],
     ) -> Result<NodalDerivatives, EstimatorError> {
+        self.nodal_derivatives_pinned(layout, u, &[])
+    }
+
+    /// [`Recovery::nodal_derivatives`] with known nodal values (Dirichlet data, e.g. `v = 0`
+    /// at a clamped wall): `pins` lists `(node, value)`. `Mapped` uses the pinned values in
+    /// place of the eq 17 values and lets those nodes enter the difference stencils;
+    /// `LeastSquares` adds each pin within reach of a fit as a sample at the node with
+    /// 100 times the largest kernel weight (a near-exact constraint). Pinned nodes report
+    /// their pinned value.
+    pub fn nodal_derivatives_pinned(
+        self,
+        layout: &Layout<'_>,
+        u: &[f64],
+        pins: &[(usize, f64)],
+    ) -> Result<NodalDerivatives, EstimatorError> {
+        for &(node, value) in pins {
+            if node >= layout.n_nodes() || !value.is_finite() {
+                return Err(EstimatorError::InvalidValue {
+                    field: "pins",
+                    index: node,
+                    value,
+                });
+            }
+        }
         if u.len() != layout.n_particles() {
             return Err(EstimatorError::Length {
                 field: "particle field",
@@ -68,10 +93,29 @@ impl Recovery {
         }
         match self {
             Recovery::Mapped => {
-                let nodal = layout.map_to_nodes(u);
-                nodal_derivatives(layout.grid, &nodal, &layout.node_active)
+                let mut nodal = layout.map_to_nodes(u);
+                // Nodes the grid constrains (walls, ghosts) see particles on one side only:
+                // their eq 17 values are first-order, so they are extrapolated instead.
+                let mut usable: Vec<bool> = (0..layout.n_nodes())
+                    .map(|i| layout.node_active[i] && !layout.grid.is_constrained(i))
+                    .collect();
+                for &(node, value) in pins {
+                    nodal[node] = value;
+                    usable[node] = true;
+                }
+                let mut d = nodal_derivatives(layout.grid, &nodal, &usable)?;
+                for &(node, value) in pins {
+                    d.value[node] = value;
+                }
+                Ok(d)
             }
-            Recovery::LeastSquares => least_squares(layout, u),
+            Recovery::LeastSquares => {
+                let mut d = least_squares(layout, u, pins)?;
+                for &(node, value) in pins {
+                    d.value[node] = value;
+                }
+                Ok(d)
+            }
         }
     }
 }
@@ -86,7 +130,11 @@ fn cell_of(layout: &Layout<'_>, x: f64) -> usize {
     }
 }
 
-fn least_squares(layout: &Layout<'_>, u: &[f64]) -> Result<NodalDerivatives, EstimatorError> {
+fn least_squares(
+    layout: &Layout<'_>,
+    u: &[f64],
+    pins: &[(usize, f64)],
+) -> Result<NodalDerivatives, EstimatorError> {
     let g = layout.grid;
     let h = g.h;
     let cells = g.cells;
@@ -152,6 +200,21 @@ fn least_squares(layout: &Layout<'_>, u: &[f64]) -> Result<NodalDerivatives, Est
                     b += w * u[p] * phi;
                     points += 1;
                 }
+            }
+            for &(node, value) in pins {
+                let xt = g.offset(node, xi); // X_node − X_i
+                if (xt / r).abs() >= 1.0 {
+                    continue;
+                }
+                let xi_ = xt / h;
+                let mut phi = SVector::<f64, NCOEF>::zeros();
+                let mut pw = 1.0;
+                for k in 0..NCOEF {
+                    phi[k] = pw;
+                    pw *= xi_;
+                }
+                a += 100.0 * phi * phi.transpose();
+                b += 100.0 * value * phi;
             }
             let solved = if points >= MIN_POINTS {
                 a.cholesky().map(|c| c.solve(&b))

@@ -35,7 +35,7 @@
 //! Cases 1, 2 and 5 need nodal derivatives of particle fields, obtained by the configured
 //! [`Recovery`]. Cases 3 and 4 difference the exact nodal values (eqs 42/43).
 
-use super::derivatives::{nodal_derivatives, NodalDerivatives};
+use super::derivatives::nodal_derivatives;
 use super::layout::Layout;
 use super::node_to_particle::{
     gradient_error, interpolation_error, second_derivative, second_derivative_error,
@@ -296,16 +296,20 @@ pub fn run_case(
                 }
             }
             let (g, s) = second_derivative(&layout, &v_p);
-            let (dv, dvx): (NodalDerivatives, NodalDerivatives) = match config.recovery {
-                Recovery::Mapped => (
-                    config.recovery.nodal_derivatives(&layout, &v_p)?,
-                    nodal_derivatives(&grid, &g, &layout.node_active)?,
-                ),
-                Recovery::LeastSquares => {
-                    let dv = config.recovery.nodal_derivatives(&layout, &v_p)?;
-                    let dvx = dv.shifted();
-                    (dv, dvx)
-                }
+            // At clamped walls the velocity is known, v = 0. The `c_0 v_i / V_i` defect term
+            // of the first map there is the boundary term of the integration by parts,
+            // `O(1/h)` times the wall velocity, so the estimate must use the known value;
+            // pinning it also steadies the one-sided fits next to the wall.
+            let pins: Vec<(usize, f64)> = match config.boundary {
+                Boundary::Fixed => vec![(1, 0.0), (nn - 2, 0.0)],
+                Boundary::Periodic => vec![],
+            };
+            let dv = config
+                .recovery
+                .nodal_derivatives_pinned(&layout, &v_p, &pins)?;
+            let dvx = match config.recovery {
+                Recovery::Mapped => nodal_derivatives(&grid, &g, &layout.node_active)?,
+                Recovery::LeastSquares => dv.shifted(),
             };
             let est = second_derivative_error(&layout, &dv, &dvx)?;
             let err: Vec<f64> = x.iter().zip(&s).map(|(&x, s)| wave.d2v(x) - s).collect();
