@@ -4,7 +4,7 @@
 //!
 //! * [`Recovery::Mapped`] — the paper's way (Section 4.3): map the particle values to the
 //!   nodes with eq 17 (`u_i = Σ_p S_ip m_p u_p / m_i`), then difference them with eqs 42/43
-//!   ([`nodal_derivatives`](super::derivatives::nodal_derivatives)) over the active nodes
+//!   ([`nodal_derivatives`]) over the active nodes
 //!   that the grid does not constrain (values at walls are extrapolated).
 //!   Exact enough on uniform layouts, where the eq 17 error is a smooth function of `X_i`
 //!   and differencing it costs nothing in order. On non-uniform layouts the eq 17 error is

@@ -30,7 +30,7 @@
 //!    `∂v/∂x(x_p) − Σ_i D_ip v(X_i)`; estimate eq 41.
 //! 5. **D then Dᵀ**: particle velocities → nodal derivative (eq 18's operator) → second
 //!    derivative at the particles (eq 24's); error `∂²v/∂x²(x_p) − s_p`; estimate
-//!    [`second_derivative_error`](super::node_to_particle::second_derivative_error).
+//!    [`second_derivative_error`].
 //!
 //! Cases 1, 2 and 5 need nodal derivatives of particle fields, obtained by the configured
 //! [`Recovery`]. Cases 3 and 4 difference the exact nodal values (eqs 42/43).
