@@ -165,7 +165,9 @@ fn least_squares(
             stamp += 1;
             let r = radius * h;
             let reach = radius.ceil() as i64 + 1;
-            let mut a = SMatrix::<f64, NCOEF, NCOEF>::zeros();
+            // The normal matrix is a Hankel matrix of the weighted power sums
+            // `Σ w ξ^k`, k = 0…2·DEGREE; accumulate those and `Σ w u ξ^k`.
+            let mut sums = [0.0_f64; 2 * DEGREE + 1];
             let mut b = SVector::<f64, NCOEF>::zeros();
             let mut points = 0;
             for j in lattice - reach..lattice + reach {
@@ -189,33 +191,17 @@ fn least_squares(
                         continue;
                     }
                     let w = (1.0 - q * q).powi(2);
-                    let xi_ = xt / h;
-                    let mut phi = SVector::<f64, NCOEF>::zeros();
-                    let mut pw = 1.0;
-                    for k in 0..NCOEF {
-                        phi[k] = pw;
-                        pw *= xi_;
-                    }
-                    a += w * phi * phi.transpose();
-                    b += w * u[p] * phi;
+                    accumulate(&mut sums, &mut b, w, xt / h, u[p]);
                     points += 1;
                 }
             }
             for &(node, value) in pins {
                 let xt = g.offset(node, xi); // X_node − X_i
-                if (xt / r).abs() >= 1.0 {
-                    continue;
+                if (xt / r).abs() < 1.0 {
+                    accumulate(&mut sums, &mut b, 100.0, xt / h, value);
                 }
-                let xi_ = xt / h;
-                let mut phi = SVector::<f64, NCOEF>::zeros();
-                let mut pw = 1.0;
-                for k in 0..NCOEF {
-                    phi[k] = pw;
-                    pw *= xi_;
-                }
-                a += 100.0 * phi * phi.transpose();
-                b += 100.0 * value * phi;
             }
+            let a = SMatrix::<f64, NCOEF, NCOEF>::from_fn(|j, k| sums[j + k]);
             let solved = if points >= MIN_POINTS {
                 a.cholesky().map(|c| c.solve(&b))
             } else {
@@ -243,4 +229,23 @@ fn least_squares(
         }
     }
     Ok(out)
+}
+
+/// Adds one sample `(ξ, u)` of weight `w` to the power sums and the right-hand side.
+#[inline]
+fn accumulate(
+    sums: &mut [f64; 2 * DEGREE + 1],
+    b: &mut SVector<f64, NCOEF>,
+    w: f64,
+    xi: f64,
+    u: f64,
+) {
+    let mut pw = w;
+    for (k, s) in sums.iter_mut().enumerate() {
+        *s += pw;
+        if k < NCOEF {
+            b[k] += pw * u;
+        }
+        pw *= xi;
+    }
 }
