@@ -2,7 +2,7 @@
 //!
 //! ```text
 //! cargo run --release --example table1 -- [--json] [--field phase|eq45]
-//!     [--boundary periodic|fixed] [--jitter J] [--seed S] [--recovery mapped|lsq]
+//!     [--boundary periodic|fixed] [--jitter J] [--tiling] [--seed S] [--recovery mapped|lsq]
 //! ```
 //!
 //! Prints a human table by default, or one JSON document (`rows`: `case`, `cells`, `ppc`,
@@ -21,6 +21,7 @@ fn parse(args: &[String]) -> Result<(bool, Config), String> {
         let mut value = |name: &str| it.next().cloned().ok_or(format!("{name} needs a value"));
         match a.as_str() {
             "--json" => json = true,
+            "--tiling" => config.tiling = true,
             "--field" => {
                 config.field = match value("--field")?.as_str() {
                     "phase" => Field::Phase,
@@ -53,7 +54,7 @@ fn parse(args: &[String]) -> Result<(bool, Config), String> {
                 config.seed = v.parse().map_err(|_| format!("--seed: not an integer: {v}"))?;
             }
             "-h" | "--help" => {
-                return Err("usage: table1 [--json] [--field phase|eq45] [--boundary periodic|fixed] [--jitter J] [--seed S] [--recovery mapped|lsq]".into())
+                return Err("usage: table1 [--json] [--field phase|eq45] [--boundary periodic|fixed] [--jitter J] [--tiling] [--seed S] [--recovery mapped|lsq]".into())
             }
             other => return Err(format!("unknown argument {other}")),
         }
@@ -63,8 +64,8 @@ fn parse(args: &[String]) -> Result<(bool, Config), String> {
 
 fn print_human(config: &Config, rows: &[Row]) {
     println!(
-        "Table 1 — field {:?}, boundary {:?}, jitter {}, recovery {:?}",
-        config.field, config.boundary, config.jitter, config.recovery
+        "Table 1 — field {:?}, boundary {:?}, jitter {} (tiling {}), recovery {:?}",
+        config.field, config.boundary, config.jitter, config.tiling, config.recovery
     );
     print!("{:>4} {:>4} |", "case", "ppc");
     for n in CELLS {

@@ -82,6 +82,13 @@ pub struct Config {
     /// How nodal derivatives of particle fields are obtained. Default [`Recovery::Mapped`]
     /// (the paper's).
     pub recovery: Recovery,
+    /// Jitter the particle *domains* instead of the positions: the cut points between
+    /// neighbouring GIMP domains move by up to `j/4` of the spacing, and each particle sits at
+    /// the centre of its domain with width and volume equal to the domain's length, so the
+    /// domains still tile the bar (no overlaps or gaps, `Σ_p D_ip V_p = 0`). Needs `ppc ≥ 2`
+    /// when `j > 0` (GIMP widths must not exceed `h`). Default false.
+    #[serde(default)]
+    pub tiling: bool,
 }
 
 impl Default for Config {
@@ -92,6 +99,7 @@ impl Default for Config {
             jitter: 0.0,
             seed: 1,
             recovery: Recovery::Mapped,
+            tiling: false,
         }
     }
 }
@@ -187,6 +195,26 @@ pub fn positions(cells: usize, ppc: usize, jitter: f64, seed: u64) -> Vec<f64> {
     x
 }
 
+/// Particle positions and widths of the tiling layout (see [`Config::tiling`]): domain cut
+/// points `c_j = (j + j_amp ξ_j / 4) h/ppc` (ends fixed), particles at the domain centres.
+pub fn tiling_layout(cells: usize, ppc: usize, jitter: f64, seed: u64) -> (Vec<f64>, Vec<f64>) {
+    let n = cells * ppc;
+    let dx = 1.0 / n as f64;
+    let mut rng = SplitMix64(seed);
+    let cuts: Vec<f64> = (0..=n)
+        .map(|j| {
+            if j == 0 || j == n || jitter == 0.0 {
+                j as f64 * dx
+            } else {
+                (j as f64 + 0.5 * jitter * (rng.next_unit() - 0.5)) * dx
+            }
+        })
+        .collect();
+    cuts.windows(2)
+        .map(|w| (0.5 * (w[0] + w[1]), w[1] - w[0]))
+        .unzip()
+}
+
 fn validate(cells: usize, ppc: usize, config: &Config) -> Result<(), EstimatorError> {
     if cells < 6 {
         return Err(EstimatorError::Argument {
@@ -207,6 +235,13 @@ fn validate(cells: usize, ppc: usize, config: &Config) -> Result<(), EstimatorEr
             name: "jitter",
             value: config.jitter,
             reason: "must lie in [0, 1]",
+        });
+    }
+    if config.tiling && config.jitter > 0.0 && ppc < 2 {
+        return Err(EstimatorError::Argument {
+            name: "ppc",
+            value: ppc as f64,
+            reason: "a jittered tiling layout needs at least 2 particles per cell",
         });
     }
     Ok(())
@@ -236,8 +271,13 @@ pub fn run_case(
     let wave = Wave::new(config.field);
     let grid = Grid::new(config.boundary, cells, 1.0);
     let h = grid.h;
-    let x = positions(cells, ppc, config.jitter, config.seed);
-    let width = vec![h / ppc as f64; x.len()];
+    let (x, width) = if config.tiling {
+        tiling_layout(cells, ppc, config.jitter, config.seed)
+    } else {
+        let x = positions(cells, ppc, config.jitter, config.seed);
+        let width = vec![h / ppc as f64; x.len()];
+        (x, width)
+    };
     let weights = Weights::compute(&grid, Shape::Gimp, &x, &width);
     let mass = width.clone(); // ρ = 1
     let mut layout = Layout::new(&grid, &weights, &x, &mass, &width)?;
@@ -324,11 +364,15 @@ pub fn run_case(
 }
 
 /// The whole table: every case of [`CASES`], cell count of [`CELLS`] and ppc of [`PPC`],
-/// ordered by case, then ppc, then cells.
+/// ordered by case, then ppc, then cells (ppc 1 is left out of a jittered tiling layout,
+/// which it cannot form).
 pub fn run(config: &Config) -> Result<Vec<Row>, EstimatorError> {
     let mut rows = Vec::with_capacity(CASES.len() * CELLS.len() * PPC.len());
     for case in CASES {
         for ppc in PPC {
+            if config.tiling && config.jitter > 0.0 && ppc < 2 {
+                continue;
+            }
             for cells in CELLS {
                 rows.push(run_case(config, case, cells, ppc)?);
             }
