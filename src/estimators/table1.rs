@@ -15,7 +15,9 @@
 //! * [`Field::Phase`] (default): `v = C sin 2πx cos 2πCt`, `σ = E cos 2πx sin 2πCt` at
 //!   `t = 1/8` (phase π/4). The paper's printed norms match this field.
 //! * [`Field::Eq45`]: eq 45 literally, `v = C sin 2πx cos Cπt`, at `t = π/4`, with the stress
-//!   `σ = E ∂u/∂x`, `u = ∫₀ᵗ v`, i.e. `σ = 2E cos 2πx sin Cπt`.
+//!   `σ = E ∂u/∂x`, `u = ∫₀ᵗ v`, i.e. `σ = 2E cos 2πx sin Cπt`. (This pair does not solve
+//!   eqs 1–2 — eq 45's `cos Cπt` should be `cos 2πCt`, see [`crate::problems`] — but Table 1
+//!   only samples fields, so any smooth pair serves.)
 //!
 //! # Cases (what each compares — the paper is terse; these choices reproduce its norms)
 //!
