@@ -39,6 +39,7 @@ fn invalid_values_name_their_field() {
             "max_consecutive_rejections",
         ),
         (r#"{"temporal": {"rtol": -1.0}}"#, "temporal.rtol"),
+        (r#"{"temporal": {"balance": 0.0}}"#, "temporal.balance"),
         (r#"{"growth": {"factor": 1.0}}"#, "growth.factor"),
         (r#"{"growth": {"windows": 1}}"#, "growth.windows"),
         (
@@ -171,6 +172,7 @@ fn config() -> impl Strategy<Value = ControllerConfig> {
             0.0f64..1.0,
             0.0f64..1.0,
             0.0f64..1.0,
+            prop::option::of(0.01f64..100.0),
         ),
         (
             any::<bool>(),
@@ -201,6 +203,7 @@ fn config() -> impl Strategy<Value = ControllerConfig> {
                 atol_rel: t.2,
                 atol_v: t.3,
                 atol_sigma: t.4,
+                balance: t.5,
             },
             growth: GrowthConfig {
                 enabled: g.0,

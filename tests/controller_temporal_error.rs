@@ -84,3 +84,36 @@ fn second_derivative_matches_the_standing_wave() {
         "dsm_v {dsm_v} expected {expect}"
     );
 }
+
+#[test]
+fn balancing_loosens_the_tolerance_where_the_spatial_error_is_large() {
+    // A coarse jittered bar: the spatial error of eqs 33/44 is large, so κ × spatial error
+    // dominates the weights and dsm falls as κ grows.
+    let dt = 0.02;
+    let dsm_for = |balance: Option<f64>| {
+        let cfg = TemporalErrorConfig {
+            rtol: 1e-5,
+            atol_rel: 1e-5,
+            balance,
+            ..TemporalErrorConfig::default()
+        };
+        let mut s = MockStepper::standing_wave(8, 2, 1.0, 1e-2, Shape::Gimp, 0.6, 4);
+        let mut l = TemporalError::new(cfg).unwrap();
+        // One accepted step so that σ ≠ 0 and the history estimate is used.
+        s.try_step(dt).unwrap();
+        l.accepted(&s.view(), &s.trial_view().unwrap(), dt);
+        s.accept().unwrap();
+        judge_metrics(&mut s, &mut l, dt).0
+    };
+    let plain = dsm_for(None);
+    let k1 = dsm_for(Some(1.0));
+    let k10 = dsm_for(Some(10.0));
+    assert!(plain > 1.0, "plain dsm {plain}");
+    assert!(k1 < 0.5 * plain, "κ = 1: {k1} vs plain {plain}");
+    assert!(k10 < k1, "κ = 10: {k10} vs κ = 1: {k1}");
+    assert!(TemporalError::new(TemporalErrorConfig {
+        balance: Some(-1.0),
+        ..TemporalErrorConfig::default()
+    })
+    .is_err());
+}

@@ -69,6 +69,13 @@ pub struct TemporalErrorConfig {
     pub atol_v: f64,
     /// Absolute stress tolerance \[stress\] (default 0).
     pub atol_sigma: f64,
+    /// Balancing factor κ (default `None`: off). When set, each particle's weights grow by
+    /// κ × the spatial local error of the same step from Section 4: `dt |Σ_i S_ip Ea_i|`
+    /// for the velocity (the spatial part of eqs 20/23, `Ea_i` by eq 33) and `|leσ_p|` of
+    /// eq 44 for the stress. The temporal error is then only required to stay below κ times
+    /// the spatial one where that is larger than the plain tolerance (Steffen, Kirby &
+    /// Berzins 2010: a temporal error far below the spatial one buys nothing).
+    pub balance: Option<f64>,
 }
 
 impl Default for TemporalErrorConfig {
@@ -79,6 +86,7 @@ impl Default for TemporalErrorConfig {
             atol_rel: 0.05,
             atol_v: 0.0,
             atol_sigma: 0.0,
+            balance: None,
         }
     }
 }
@@ -93,6 +101,14 @@ impl TemporalErrorConfig {
             ("temporal.atol_sigma", self.atol_sigma),
         ] {
             check(field, v, v.is_finite() && v >= 0.0, "finite and >= 0")?;
+        }
+        if let Some(k) = self.balance {
+            check(
+                "temporal.balance",
+                k,
+                k.is_finite() && k > 0.0,
+                "finite and > 0",
+            )?;
         }
         check(
             "temporal.rtol",
@@ -193,6 +209,28 @@ impl TemporalError {
         Ok((accel, rate))
     }
 
+    /// Spatial local errors of a step of size `dt` from `view`, per particle:
+    /// `dt |Σ_i S_ip Ea_i|` (eqs 20, 23 with eq 33) and `|leσ_p|` (eq 44).
+    fn spatial(view: &View<'_>, dt: f64) -> Result<(Vec<f64>, Vec<f64>), LimitError> {
+        use crate::estimators::{
+            local_stress::local_stress_error, stress_divergence_error, Recovery,
+        };
+        let err = |e: crate::estimators::EstimatorError| Self::other(format!("balance: {e}"));
+        let ea = stress_divergence_error(view).map_err(err)?;
+        let mut ea_p = vec![0.0; view.n_particles()];
+        if ea.len() != view.weights.n_nodes() || view.weights.n_particles() != ea_p.len() {
+            return Err(Self::other("balance: inconsistent view sizes".to_string()));
+        }
+        view.weights.gather(WeightKind::S, &ea, &mut ea_p);
+        let sv = ea_p.iter().map(|e| dt * e.abs()).collect();
+        let ss = local_stress_error(view, dt, Recovery::default())
+            .map_err(err)?
+            .into_iter()
+            .map(f64::abs)
+            .collect();
+        Ok((sv, ss))
+    }
+
     /// Computes `(dsm, dsm_v, dsm_sigma)` of a trial and the rates to remember.
     fn estimate(
         &self,
@@ -252,6 +290,16 @@ impl TemporalError {
         v_scale = v_scale.max(v_from_s);
         sigma_scale = sigma_scale.max(s_from_v);
         let c = &self.config;
+        let (spatial_v, spatial_s) = match c.balance {
+            Some(kappa) => {
+                let (sv, ss) = Self::spatial(before, dt)?;
+                (
+                    sv.into_iter().map(|e| kappa * e).collect(),
+                    ss.into_iter().map(|e| kappa * e).collect(),
+                )
+            }
+            None => (vec![0.0; n], vec![0.0; n]),
+        };
         let half_dt2 = 0.5 * dt * dt;
         let term = |le: f64, w: f64| -> f64 {
             if le == 0.0 {
@@ -264,9 +312,11 @@ impl TemporalError {
         let (mut sum_v, mut sum_s) = (0.0, 0.0);
         for p in 0..n {
             let wv = c.atol_v
+                + spatial_v[p]
                 + c.atol_rel * v_scale.max(prev_v)
                 + c.rtol * before.v[p].abs().max(after.v[p].abs());
             let ws = c.atol_sigma
+                + spatial_s[p]
                 + c.atol_rel * sigma_scale.max(prev_s)
                 + c.rtol * before.sigma[p].abs().max(after.sigma[p].abs());
             sum_v += term(half_dt2 * dv2[p], wv);
