@@ -11,7 +11,7 @@ mod common;
 use common::{all_finite, MockStepper, SoundSpeedMock};
 use mpm_dt::controller::{Controller, ControllerConfig, GrowthConfig};
 use mpm_dt::limit::{RejectCause, StepLimit};
-use mpm_dt::{Shape, Stepper};
+use mpm_dt::Shape;
 
 /// 16 cells × 2 GIMP particles: the frozen critical step is ≈ 0.75 h/c; the limit proposes
 /// 0.77 h/(c + |v|), a few per cent too large.
