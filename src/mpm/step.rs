@@ -183,16 +183,16 @@ pub(crate) fn advance(
     let h = ctx.grid.h;
     let flags = match (ctx.shape, ctx.grid.boundary) {
         (Shape::Gimp, Boundary::Periodic) => {
-            with_material::<_, true>(ctx, ws, from, to, dt, |x, l| Shape::Gimp.stencil(x, l, h))
+            with_material::<_, true>(ctx, ws, from, to, dt, Fixed::<true>(h))
         }
         (Shape::Gimp, Boundary::Fixed) => {
-            with_material::<_, false>(ctx, ws, from, to, dt, |x, l| Shape::Gimp.stencil(x, l, h))
+            with_material::<_, false>(ctx, ws, from, to, dt, Fixed::<true>(h))
         }
         (Shape::Linear, Boundary::Periodic) => {
-            with_material::<_, true>(ctx, ws, from, to, dt, |x, l| Shape::Linear.stencil(x, l, h))
+            with_material::<_, true>(ctx, ws, from, to, dt, Fixed::<false>(h))
         }
         (Shape::Linear, Boundary::Fixed) => {
-            with_material::<_, false>(ctx, ws, from, to, dt, |x, l| Shape::Linear.stencil(x, l, h))
+            with_material::<_, false>(ctx, ws, from, to, dt, Fixed::<false>(h))
         }
     };
 
@@ -235,6 +235,26 @@ pub(crate) fn advance(
     Ok(())
 }
 
+/// A stencil evaluator with the shape fixed at compile time, so that the particle pass
+/// inlines it (a closure was not inlined, measured at 40 % of the step).
+trait Stencil {
+    fn at(&self, x: f64, width: f64) -> ParticleStencil;
+}
+
+/// `Fixed::<true>` evaluates GIMP, `Fixed::<false>` linear-hat weights, on spacing `.0`.
+struct Fixed<const GIMP: bool>(f64);
+
+impl<const GIMP: bool> Stencil for Fixed<GIMP> {
+    #[inline(always)]
+    fn at(&self, x: f64, width: f64) -> ParticleStencil {
+        if GIMP {
+            Shape::Gimp.stencil(x, width, self.0)
+        } else {
+            Shape::Linear.stencil(x, width, self.0)
+        }
+    }
+}
+
 /// Outcome flags of a particle pass.
 struct PassFlags {
     /// `Σ_p |x| + |v| + |σ| + |F|` of the trial: finite unless some value is not.
@@ -253,7 +273,7 @@ fn with_material<St, const PERIODIC: bool>(
     stencil: St,
 ) -> PassFlags
 where
-    St: Fn(f64, f64) -> ParticleStencil,
+    St: Stencil,
 {
     match ctx.material {
         Material::LinearElastic { youngs_modulus } => {
@@ -282,7 +302,7 @@ fn particle_pass<St, Up, const PERIODIC: bool>(
     update_stress: Up,
 ) -> PassFlags
 where
-    St: Fn(f64, f64) -> ParticleStencil,
+    St: Stencil,
     Up: Fn(f64, f64, f64) -> f64,
 {
     let grid = ctx.grid;
@@ -309,7 +329,7 @@ where
     for p in 0..n {
         let (x, l) = (x0[p], width[p]);
         // Gather at xⁿ (eqs 21, 24).
-        let st = stencil(x - origin, l);
+        let st = stencil.at(x - origin, l);
         let base = base_slot(&st, max_base);
         let g = &gather[base..base + MAX_NODES];
         let mut a_p = 0.0;
@@ -346,7 +366,7 @@ where
             continue;
         }
         // Deposit at xⁿ⁺¹ (eqs 6, 7, 17).
-        let st = stencil(x_new - origin, l);
+        let st = stencil.at(x_new - origin, l);
         let base = base_slot(&st, max_base);
         let m = mass[p];
         deposit(acc, &st, base, m, m * v_new, s_new * f_new * vol0[p]);
