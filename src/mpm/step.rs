@@ -255,6 +255,9 @@ impl<const GIMP: bool> Stencil for Fixed<GIMP> {
     }
 }
 
+/// Particles per block of the particle pass (update, then deposit; see `particle_pass`).
+const BLOCK: usize = 128;
+
 /// Outcome flags of a particle pass.
 struct PassFlags {
     /// `Σ_p |x| + |v| + |σ| + |F|` of the trial: finite unless some value is not.
@@ -323,54 +326,66 @@ where
         &mut to.f[..n],
     );
 
+    // Branch-free flags: the first offending particle is located afterwards, only when a
+    // flag is raised.
     let mut finite_sum = 0.0;
-    let mut first_inverted = None;
-    let mut first_out = None;
-    for p in 0..n {
-        let (x, l) = (x0[p], width[p]);
-        // Gather at xⁿ (eqs 21, 24).
-        let st = stencil.at(x - origin, l);
-        let base = base_slot(&st, max_base);
-        let g = &gather[base..base + MAX_NODES];
-        let mut a_p = 0.0;
-        let mut grad_v = 0.0;
-        for ((node, &s), &d) in g.iter().zip(&st.s).zip(&st.d) {
-            a_p += s * node[0];
-            grad_v += d * node[1];
-        }
-        // Particle update (eqs 22, 25, 27, 29).
-        let v_new = v0[p] + dt * a_p;
-        let dt_l = dt * grad_v;
-        let f_new = f0[p] * (1.0 + dt_l);
-        let s_new = update_stress(s0[p], f_new, dt_l);
-        let mut x_new = x + dt * v_new;
-        finite_sum += x_new.abs() + v_new.abs() + s_new.abs() + f_new.abs();
-        if f_new.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) && first_inverted.is_none()
-        {
-            first_inverted = Some(p);
-        }
-        let inside = if PERIODIC {
-            x_new = grid.wrap(x_new);
-            true
-        } else {
-            x_new >= origin && x_new <= upper
-        };
-        x1[p] = x_new;
-        v1[p] = v_new;
-        s1[p] = s_new;
-        f1[p] = f_new;
-        if !inside {
-            if first_out.is_none() {
-                first_out = Some(p);
+    let mut min_f = f64::INFINITY;
+    let mut any_out = false;
+    // Blocks: first the gather and update of a block (independent iterations the CPU can
+    // overlap), then its deposit from the just-written, cache-hot trial fields.
+    let mut start = 0;
+    while start < n {
+        let end = (start + BLOCK).min(n);
+        for p in start..end {
+            let (x, l) = (x0[p], width[p]);
+            // Gather at xⁿ (eqs 21, 24).
+            let st = stencil.at(x - origin, l);
+            let base = base_slot(&st, max_base);
+            let g = &gather[base..base + MAX_NODES];
+            let mut a_p = 0.0;
+            let mut grad_v = 0.0;
+            for ((node, &s), &d) in g.iter().zip(&st.s).zip(&st.d) {
+                a_p += s * node[0];
+                grad_v += d * node[1];
             }
-            continue;
+            // Particle update (eqs 22, 25, 27, 29).
+            let v_new = v0[p] + dt * a_p;
+            let dt_l = dt * grad_v;
+            let f_new = f0[p] * (1.0 + dt_l);
+            let s_new = update_stress(s0[p], f_new, dt_l);
+            let mut x_new = x + dt * v_new;
+            finite_sum += x_new.abs() + v_new.abs() + s_new.abs() + f_new.abs();
+            min_f = min_f.min(f_new);
+            if PERIODIC {
+                x_new = grid.wrap(x_new);
+            } else {
+                any_out |= !(x_new >= origin && x_new <= upper);
+            }
+            x1[p] = x_new;
+            v1[p] = v_new;
+            s1[p] = s_new;
+            f1[p] = f_new;
         }
-        // Deposit at xⁿ⁺¹ (eqs 6, 7, 17).
-        let st = stencil.at(x_new - origin, l);
-        let base = base_slot(&st, max_base);
-        let m = mass[p];
-        deposit(acc, &st, base, m, m * v_new, s_new * f_new * vol0[p]);
+        // Deposit at xⁿ⁺¹ (eqs 6, 7, 17). Out-of-domain or non-finite particles deposit
+        // on clamped slots: harmless, because such a trial is refused before finalizing.
+        for p in start..end {
+            let st = stencil.at(x1[p] - origin, width[p]);
+            let base = base_slot(&st, max_base);
+            let m = mass[p];
+            deposit(acc, &st, base, m, m * v1[p], s1[p] * f1[p] * vol0[p]);
+        }
+        start = end;
     }
+    let first_inverted = if min_f > 0.0 {
+        None
+    } else {
+        f1.iter().position(|&f| f <= 0.0)
+    };
+    let first_out = if any_out {
+        x1.iter().position(|&x| !(x >= origin && x <= upper))
+    } else {
+        None
+    };
     PassFlags {
         finite_sum,
         first_inverted,
