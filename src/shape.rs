@@ -9,12 +9,8 @@
 //!   `S_ip = (1/l_p) ∫ N_i χ_p dx`, `D_ip = (1/l_p) ∫ N_i′ χ_p dx`.
 //!   Both are evaluated in closed form through the antiderivative
 //!   `Φ(r) = ∫_{−∞}^{r} N(s) ds` of the hat: `S_ip = (Φ(b − X_i) − Φ(a − X_i))/l_p` and
-//!   `D_ip = (N_i(b) − N_i(a))/l_p` with `[a, b] = [x_p − l_p/2, x_p + l_p/2]`. With the
-//!   first node `j = ⌊a/h⌋` and the domain ends in cell units `α = a/h − j ∈ [0, 1)`,
-//!   `β = α + l_p/h < 2`, `β_c = min(β, 1)`, `β_e = max(β − 1, 0)`, `λ = l_p/h`, this is,
-//!   for nodes `j, j+1, j+2`, without branches:
-//!   `S = [(1−α)² − (1−β_c)², β_c² − α² + 2β_e − β_e², β_e²] / (2λ)` and
-//!   `D = [α − β_c, β_c − β_e − α, β_e] / l_p`. This is exact for any `l_p ≤ h`.
+//!   `D_ip = (N_i(b) − N_i(a))/l_p` with `[a, b] = [x_p − l_p/2, x_p + l_p/2]`. This is exact
+//!   for any `l_p ≤ h` and needs no case analysis of where the domain sits.
 //!
 //! Both families reproduce constants and linears: `Σ_i S_ip = 1`, `Σ_i S_ip X_i = x_p`,
 //! `Σ_i D_ip = 0`, `Σ_i D_ip X_i = 1` (the properties eqs 32–34 rely on).
@@ -50,17 +46,22 @@ pub struct ParticleStencil {
     pub d: [f64; MAX_NODES],
 }
 
-/// `⌊q⌋` by truncation and correction: one conversion instead of a call to `floor` (the
-/// x86-64 baseline has no rounding instruction, and the call was ~10 % of a solver step).
-/// Equal to `q.floor()` for `|q| < 2⁶³`; NaN gives 0 (as `q.floor() as i64` does).
+/// Antiderivative of the unit hat of half-width `h`, scaled by `1/h`:
+/// `φ(r) = (1/h) ∫_{−∞}^{r} N(s) ds`, so that `φ(−∞) = 0`, `φ(+∞) = 1`.
 #[inline(always)]
-fn floor_fast(q: f64) -> f64 {
-    let t = q as i64 as f64;
-    if t > q {
-        t - 1.0
+fn hat_integral(r: f64, inv_h: f64) -> f64 {
+    let q = (r * inv_h).clamp(-1.0, 1.0);
+    if q <= 0.0 {
+        0.5 * (q + 1.0) * (q + 1.0)
     } else {
-        t
+        1.0 - 0.5 * (1.0 - q) * (1.0 - q)
     }
+}
+
+/// The unit hat `N(r) = max(0, 1 − |r|/h)`.
+#[inline(always)]
+fn hat(r: f64, inv_h: f64) -> f64 {
+    (1.0 - (r * inv_h).abs()).max(0.0)
 }
 
 impl Shape {
@@ -71,31 +72,27 @@ impl Shape {
         let inv_h = 1.0 / h;
         match self {
             Shape::Gimp => {
-                // Local coordinates of the domain ends in units of h, measured from the
-                // first node j = ⌊(x − l/2)/h⌋: α ∈ [0, 1), β = α + l/h ∈ [α, 2).
-                let lam = width * inv_h;
-                let q = (x - 0.5 * width) * inv_h;
-                let first = floor_fast(q);
-                let alpha = q - first;
-                let beta = alpha + lam;
-                let bc = beta.min(1.0);
-                let be = (beta - 1.0).max(0.0);
-                let inv_lam = 1.0 / lam;
-                let inv_l = inv_lam * inv_h;
-                let (ma, mb) = (1.0 - alpha, 1.0 - bc);
+                let half = 0.5 * width;
+                let a = x - half;
+                let first = (a * inv_h).floor();
+                let inv_l = 1.0 / width;
+                let mut s = [0.0; MAX_NODES];
+                let mut d = [0.0; MAX_NODES];
+                for k in 0..MAX_NODES {
+                    let xi = (first + k as f64) * h;
+                    let (ra, rb) = (a - xi, x + half - xi);
+                    s[k] = (hat_integral(rb, inv_h) - hat_integral(ra, inv_h)) * h * inv_l;
+                    d[k] = (hat(rb, inv_h) - hat(ra, inv_h)) * inv_l;
+                }
                 ParticleStencil {
                     first: first as i64,
-                    s: [
-                        0.5 * (ma * ma - mb * mb) * inv_lam,
-                        (0.5 * (bc * bc - alpha * alpha) + be - 0.5 * be * be) * inv_lam,
-                        0.5 * be * be * inv_lam,
-                    ],
-                    d: [(alpha - bc) * inv_l, (bc - be - alpha) * inv_l, be * inv_l],
+                    s,
+                    d,
                 }
             }
             Shape::Linear => {
                 let q = x * inv_h;
-                let first = floor_fast(q);
+                let first = q.floor();
                 let f = q - first;
                 ParticleStencil {
                     first: first as i64,
