@@ -38,6 +38,7 @@ mod material;
 mod reference;
 mod setup;
 mod state;
+mod stencil;
 mod step;
 
 pub use material::Material;

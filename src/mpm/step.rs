@@ -30,6 +30,7 @@
 
 use super::material::Material;
 use super::state::{is_active, State};
+use super::stencil;
 use crate::grid::{Boundary, Grid};
 use crate::shape::{ParticleStencil, Shape, MAX_NODES};
 
@@ -146,10 +147,10 @@ fn finalize(ctx: &Ctx<'_>, acc: &[[f64; 3]], to: &mut State) {
 /// once at set-up; the step does this inside its particle pass.
 pub(crate) fn deposit_state(ctx: &Ctx<'_>, ws: &mut Workspace, state: &mut State) {
     ws.acc.fill([0.0; 3]);
-    let (h, origin) = (ctx.grid.h, ctx.grid.origin);
+    let (inv_h, origin) = (1.0 / ctx.grid.h, ctx.grid.origin);
     let max_base = (ext_len(ctx.grid) - MAX_NODES) as i64;
     for p in 0..state.x.len() {
-        let st = ctx.shape.stencil(state.x[p] - origin, ctx.width[p], h);
+        let st = stencil::of(ctx.shape, state.x[p] - origin, ctx.width[p], inv_h);
         let base = base_slot(&st, max_base);
         let m = ctx.mass[p];
         let sfv = state.sigma[p] * state.f[p] * ctx.volume0[p];
@@ -180,19 +181,19 @@ pub(crate) fn advance(
     ws.acc.fill([0.0; 3]);
 
     // 2. Fused particle pass, monomorphised over shape, boundary and material.
-    let h = ctx.grid.h;
+    let inv_h = 1.0 / ctx.grid.h;
     let flags = match (ctx.shape, ctx.grid.boundary) {
         (Shape::Gimp, Boundary::Periodic) => {
-            with_material::<_, true>(ctx, ws, from, to, dt, Fixed::<true>(h))
+            with_material::<_, true>(ctx, ws, from, to, dt, Fixed::<true>(inv_h))
         }
         (Shape::Gimp, Boundary::Fixed) => {
-            with_material::<_, false>(ctx, ws, from, to, dt, Fixed::<true>(h))
+            with_material::<_, false>(ctx, ws, from, to, dt, Fixed::<true>(inv_h))
         }
         (Shape::Linear, Boundary::Periodic) => {
-            with_material::<_, true>(ctx, ws, from, to, dt, Fixed::<false>(h))
+            with_material::<_, true>(ctx, ws, from, to, dt, Fixed::<false>(inv_h))
         }
         (Shape::Linear, Boundary::Fixed) => {
-            with_material::<_, false>(ctx, ws, from, to, dt, Fixed::<false>(h))
+            with_material::<_, false>(ctx, ws, from, to, dt, Fixed::<false>(inv_h))
         }
     };
 
@@ -241,16 +242,16 @@ trait Stencil {
     fn at(&self, x: f64, width: f64) -> ParticleStencil;
 }
 
-/// `Fixed::<true>` evaluates GIMP, `Fixed::<false>` linear-hat weights, on spacing `.0`.
+/// `Fixed::<true>` evaluates GIMP, `Fixed::<false>` linear-hat weights; `.0` is `1/h`.
 struct Fixed<const GIMP: bool>(f64);
 
 impl<const GIMP: bool> Stencil for Fixed<GIMP> {
     #[inline(always)]
     fn at(&self, x: f64, width: f64) -> ParticleStencil {
         if GIMP {
-            Shape::Gimp.stencil(x, width, self.0)
+            stencil::gimp(x, width, self.0)
         } else {
-            Shape::Linear.stencil(x, width, self.0)
+            stencil::linear(x, self.0)
         }
     }
 }
