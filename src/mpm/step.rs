@@ -94,11 +94,11 @@ fn ext_to_storage(grid: &Grid, e: usize) -> Option<usize> {
 }
 
 /// First extended slot of a stencil, clamped so that `MAX_NODES` slots always fit
-/// (in-domain particles never need the clamp; it keeps NaN positions from indexing out
-/// of bounds).
+/// (in-domain particles never need the clamp; it keeps NaN and infinite positions —
+/// whose `first` is 0 or saturated at `i64::MAX`/`MIN` — from indexing out of bounds).
 #[inline(always)]
 fn base_slot(st: &ParticleStencil, max_base: i64) -> usize {
-    (st.first + 1).clamp(0, max_base) as usize
+    st.first.saturating_add(1).clamp(0, max_base) as usize
 }
 
 /// Adds one particle's mass, momentum and internal force (eq 6) to the accumulators.
@@ -112,30 +112,45 @@ fn deposit(acc: &mut [[f64; 3]], st: &ParticleStencil, base: usize, m: f64, mv: 
     }
 }
 
-/// Folds the accumulators onto the stored nodes and computes `m_i`, `v_i`, `a_i`.
-fn finalize(ctx: &Ctx<'_>, acc: &[[f64; 3]], to: &mut State) {
+/// Folds the accumulators onto the stored nodes, computes `m_i`, `v_i = p_i/m_i`,
+/// `a_i = f_i/m_i` (zero at inactive and constrained nodes) and leaves the accumulators
+/// zeroed for the next deposit, in one pass over the nodes.
+fn finalize(ctx: &Ctx<'_>, acc: &mut [[f64; 3]], to: &mut State) {
     let grid = ctx.grid;
-    to.node_mass.fill(0.0);
-    to.node_velocity.fill(0.0);
-    to.node_acceleration.fill(0.0);
-    for (e, a) in acc.iter().enumerate() {
-        if let Some(i) = ext_to_storage(grid, e) {
-            to.node_mass[i] += a[0];
-            to.node_velocity[i] += a[1];
-            to.node_acceleration[i] += a[2];
+    let n_nodes = grid.n_nodes();
+    // Slot of stored node i: i + 1 (periodic: lattice j = i) or i (fixed: storage order).
+    let offset = match grid.boundary {
+        Boundary::Periodic => {
+            // Fold the image slots (lattice −1, N, N+1, N+2) onto their nodes.
+            for e in [0, n_nodes + 1, n_nodes + 2, n_nodes + 3] {
+                if let Some(i) = ext_to_storage(grid, e) {
+                    let a = std::mem::take(&mut acc[e]);
+                    let slot = &mut acc[i + 1];
+                    slot[0] += a[0];
+                    slot[1] += a[1];
+                    slot[2] += a[2];
+                }
+            }
+            1
         }
-    }
-    for (i, ((&m, v), a)) in to
+        // The spare last slot only ever receives zero weights.
+        Boundary::Fixed => {
+            acc[n_nodes] = [0.0; 3];
+            0
+        }
+    };
+    let nodes = to
         .node_mass
-        .iter()
+        .iter_mut()
         .zip(to.node_velocity.iter_mut())
-        .zip(to.node_acceleration.iter_mut())
-        .enumerate()
-    {
-        if is_active(grid, i, m, ctx.threshold) {
-            let inv = 1.0 / m;
-            *v *= inv;
-            *a *= inv;
+        .zip(to.node_acceleration.iter_mut());
+    for (i, (((m, v), a), slot)) in nodes.zip(&mut acc[offset..offset + n_nodes]).enumerate() {
+        let [mi, pi, fi] = std::mem::take(slot);
+        *m = mi;
+        if is_active(grid, i, mi, ctx.threshold) {
+            let inv = 1.0 / mi;
+            *v = pi * inv;
+            *a = fi * inv;
         } else {
             *v = 0.0;
             *a = 0.0;
@@ -156,7 +171,7 @@ pub(crate) fn deposit_state(ctx: &Ctx<'_>, ws: &mut Workspace, state: &mut State
         let sfv = state.sigma[p] * state.f[p] * ctx.volume0[p];
         deposit(&mut ws.acc, &st, base, m, m * state.v[p], sfv);
     }
-    finalize(ctx, &ws.acc, state);
+    finalize(ctx, &mut ws.acc, state);
 }
 
 /// One trial step of size `dt` from `from` into `to` (see the module docs). `to`'s
@@ -178,7 +193,7 @@ pub(crate) fn advance(
             None => [0.0, 0.0],
         };
     }
-    ws.acc.fill([0.0; 3]);
+    // The accumulators are zero here: `finalize` (or a failed pass, below) cleared them.
 
     // 2. Fused particle pass, monomorphised over shape, boundary and material.
     let inv_h = 1.0 / ctx.grid.h;
@@ -197,7 +212,20 @@ pub(crate) fn advance(
         }
     };
 
-    // Failures, most basic first.
+    if let Some(failure) = first_failure(&flags, to) {
+        // Leave the accumulators clean for the next attempt.
+        ws.acc.fill([0.0; 3]);
+        return Err(failure);
+    }
+
+    // 3. Grid finalize of the trial state.
+    finalize(ctx, &mut ws.acc, to);
+    Ok(())
+}
+
+/// The first failure of a trial, most basic first: non-finite values, then inversion,
+/// then a particle outside a fixed domain.
+fn first_failure(flags: &PassFlags, to: &State) -> Option<Failure> {
     if !flags.finite_sum.is_finite() {
         let fields: [(&'static str, &[f64]); 4] = [
             ("x", &to.x),
@@ -215,25 +243,22 @@ pub(crate) fn advance(
             .min_by_key(|&(index, _)| index);
         // A finite state whose |values| merely overflowed the sum is not a failure.
         if let Some((index, field)) = first {
-            return Err(Failure::NonFinite { field, index });
+            return Some(Failure::NonFinite { field, index });
         }
     }
     if let Some(index) = flags.first_inverted {
-        return Err(Failure::Inverted {
+        return Some(Failure::Inverted {
             index,
             f: to.f[index],
         });
     }
     if let Some(index) = flags.first_out {
-        return Err(Failure::OutOfDomain {
+        return Some(Failure::OutOfDomain {
             index,
             x: to.x[index],
         });
     }
-
-    // 3. Grid finalize of the trial state.
-    finalize(ctx, &ws.acc, to);
-    Ok(())
+    None
 }
 
 /// A stencil evaluator with the shape fixed at compile time, so that the particle pass
