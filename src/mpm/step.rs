@@ -282,7 +282,7 @@ impl<const GIMP: bool> Stencil for Fixed<GIMP> {
 }
 
 /// Particles per block of the particle pass (update, then deposit; see `particle_pass`).
-const BLOCK: usize = 128;
+const BLOCK: usize = 256;
 
 /// Outcome flags of a particle pass.
 struct PassFlags {
