@@ -42,5 +42,5 @@ mod stencil;
 mod step;
 
 pub use material::Material;
-pub use reference::{ReferenceStepper, INACTIVE_MASS_FRACTION};
+pub use reference::{ReferenceStepper, SolverCheckpoint, INACTIVE_MASS_FRACTION};
 pub use setup::{ParticleInit, SetupError};
