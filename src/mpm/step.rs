@@ -17,7 +17,17 @@
 //!    trial state, zero at constrained and inactive nodes.
 //!
 //! So every particle is read and written once per step, and the nodal sums the *next* step
-//! needs are ready when the trial is accepted.
+//! needs are ready when the trial is accepted. Step 2 runs over blocks of `BLOCK` particles:
+//! first the gather and update of the whole block (independent iterations the CPU overlaps),
+//! then its deposit from the just-written, cache-resident trial fields — the same arithmetic
+//! in the same order as one loop, measured about 1.5× faster. Stencils come from the
+//! branch-free forms of `stencil.rs`; the deposit order is the particle order, so a restart
+//! that recomputes the nodal sums from the particles reproduces them bit for bit.
+//!
+//! Failures are detected without branches in the loop (an accumulated `Σ |x|+|v|+|σ|+|F|`
+//! that is finite unless some value is not, the minimum `F`, an out-of-domain flag) and the
+//! first offending particle is located only when one fires. A failed trial leaves the
+//! committed state and the scratch arrays as they were.
 //!
 //! # Extended lattice
 //!
