@@ -70,8 +70,9 @@ fn restore_rejects_mismatched_limits() {
 
 #[test]
 fn reference_stepper_restart_is_bit_identical() {
-    use mpm_dt::mpm::Snapshot;
+    use mpm_dt::mpm::{ReferenceStepper, SolverCheckpoint};
     use mpm_dt::scenario::Scenario;
+    use mpm_dt::Stepper;
     let scenario = Scenario::from_json(
         r#"{"cells": 16, "particles": {"per_cell": 2},
             "initial": {"standing_wave": {"amplitude": 1e-2, "mode": 1}}}"#,
@@ -83,27 +84,26 @@ fn reference_stepper_restart_is_bit_identical() {
     c.run_until(&mut s, 0.2, &mut |_| {}).unwrap();
     let json = serde_json::to_string(&Checkpoint {
         controller: c.checkpoint(),
-        stepper: s.snapshot(),
+        stepper: s.checkpoint(),
     })
     .unwrap();
     let mut straight = Vec::new();
     c.run_until(&mut s, 0.5, &mut |d| straight.push(d.to_json_line()))
         .unwrap();
 
-    let cp: Checkpoint<Snapshot> = serde_json::from_str(&json).unwrap();
-    let mut s2 = scenario.build().unwrap();
-    s2.restore_snapshot(cp.stepper).unwrap();
+    let cp: Checkpoint<SolverCheckpoint> = serde_json::from_str(&json).unwrap();
+    let mut s2 = ReferenceStepper::from_checkpoint(cp.stepper).unwrap();
     let mut c2 = Controller::restore(cp.controller, limits(&config)).unwrap();
     let mut restarted = Vec::new();
     c2.run_until(&mut s2, 0.5, &mut |d| restarted.push(d.to_json_line()))
         .unwrap();
     assert!(!straight.is_empty());
     assert_eq!(straight, restarted);
-    let (a, b) = (s.snapshot(), s2.snapshot());
+    let (a, b) = (s.view(), s2.view());
     let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-    assert_eq!(bits(&a.x), bits(&b.x));
-    assert_eq!(bits(&a.v), bits(&b.v));
-    assert_eq!(bits(&a.sigma), bits(&b.sigma));
-    assert_eq!(bits(&a.node_acceleration), bits(&b.node_acceleration));
+    assert_eq!(bits(a.x), bits(b.x));
+    assert_eq!(bits(a.v), bits(b.v));
+    assert_eq!(bits(a.sigma), bits(b.sigma));
+    assert_eq!(bits(a.node_acceleration), bits(b.node_acceleration));
     assert_eq!(a.t.to_bits(), b.t.to_bits());
 }
