@@ -11,7 +11,13 @@ fn partition_and_linear() {
                 let d: f64 = w.d_of(p).iter().sum();
                 let sx: f64 = w.row(p).map(|(i, s, _)| s * g.offset(i, xs[p])).sum();
                 let dx: f64 = w.row(p).map(|(i, _, d)| d * g.offset(i, xs[p])).sum();
-                assert!((s - 1.0).abs() < 1e-12 && d.abs() < 1e-9 && sx.abs() < 1e-12 && (dx - 1.0).abs() < 1e-12, "{shape:?} {b:?} p={p} {s} {d} {sx} {dx}");
+                assert!(
+                    (s - 1.0).abs() < 1e-12
+                        && d.abs() < 1e-9
+                        && sx.abs() < 1e-12
+                        && (dx - 1.0).abs() < 1e-12,
+                    "{shape:?} {b:?} p={p} {s} {d} {sx} {dx}"
+                );
             }
         }
     }
