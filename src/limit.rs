@@ -149,4 +149,26 @@ pub trait StepLimit {
     fn rejected(&mut self, dt: f64, cause: RejectCause) {
         let _ = (dt, cause);
     }
+
+    /// Multiplies this limit's stability safety factor by `factor` (in `(0, 1]`) for the
+    /// rest of the run. The controller calls it on every limit when its growth monitor
+    /// detects a slowly growing instability. Limits without a safety factor ignore it
+    /// (the default); a stability limit lowers the factor it applies to its critical step.
+    fn scale_safety(&mut self, factor: f64) {
+        let _ = factor;
+    }
+
+    /// The limit's internal state (histories, warm starts) for a checkpoint, or `None`
+    /// when the limit is stateless (the default). Restoring it with
+    /// [`StepLimit::restore_state`] must make the limit behave bit-identically.
+    fn save_state(&self) -> Option<serde_json::Value> {
+        None
+    }
+
+    /// Restores a state produced by [`StepLimit::save_state`]. The default accepts
+    /// anything and does nothing (stateless limits).
+    fn restore_state(&mut self, state: &serde_json::Value) -> Result<(), LimitError> {
+        let _ = state;
+        Ok(())
+    }
 }

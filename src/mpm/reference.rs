@@ -1,0 +1,283 @@
+//! [`ReferenceStepper`]: the reference 1D USL solver behind the [`Stepper`] trait.
+
+use super::material::Material;
+use super::setup::{ParticleInit, SetupError};
+use super::state::State;
+use super::step::{advance, deposit_state, Ctx, Failure, Workspace};
+use crate::grid::Grid;
+use crate::shape::Shape;
+use crate::stepper::{StepError, Stepper, View};
+
+/// Nodes whose mass is at most this fraction of the mean nodal mass `M/N` (total particle
+/// mass over number of cells) are *inactive*: their velocity and acceleration are set to
+/// zero instead of dividing by a vanishing mass (eqs 17, 18). The fraction is tiny on
+/// purpose: only nodes that particles barely touch are dropped, so the collapse of the
+/// critical step with linear-hat weights and small nodal masses (DESIGN.md) stays visible.
+pub const INACTIVE_MASS_FRACTION: f64 = 1e-12;
+
+/// The reference 1D update-stress-last MPM solver (eqs 17–29; see [`crate::mpm`]).
+///
+/// Holds a committed and a trial state (double buffering): [`Stepper::try_step`] writes only
+/// the trial, [`Stepper::accept`] swaps the two, [`Stepper::reject`] drops the trial flag, so
+/// rollback is exact bit for bit and costs nothing.
+#[derive(Clone, Debug)]
+pub struct ReferenceStepper {
+    grid: Grid,
+    shape: Shape,
+    material: Material,
+    mass: Vec<f64>,
+    volume0: Vec<f64>,
+    width: Vec<f64>,
+    threshold: f64,
+    committed: State,
+    trial: State,
+    trial_pending: bool,
+    workspace: Workspace,
+}
+
+impl ReferenceStepper {
+    /// Builds the solver at `t = 0` from validated particle data (see
+    /// [`ParticleInit::validate`]) and computes the nodal mass, velocity (eq 17) and
+    /// acceleration (eq 18) of the initial state.
+    pub fn new(
+        grid: Grid,
+        shape: Shape,
+        material: Material,
+        particles: ParticleInit,
+    ) -> Result<Self, SetupError> {
+        let e = material.youngs_modulus();
+        if !(e.is_finite() && e > 0.0) {
+            return Err(SetupError::Material { value: e });
+        }
+        particles.validate(&grid)?;
+        let ParticleInit {
+            x,
+            v,
+            sigma,
+            f,
+            volume0,
+            mass,
+            width,
+        } = particles;
+        let total_mass: f64 = mass.iter().sum();
+        let threshold = INACTIVE_MASS_FRACTION * total_mass / grid.cells as f64;
+        let n_nodes = grid.n_nodes();
+        let mut committed = State::new(x, v, sigma, f, n_nodes);
+        let mut workspace = Workspace::new(&grid);
+        {
+            let ctx = Ctx {
+                grid: &grid,
+                shape,
+                material,
+                mass: &mass,
+                volume0: &volume0,
+                width: &width,
+                threshold,
+            };
+            deposit_state(&ctx, &mut workspace, &mut committed);
+        }
+        let trial = committed.clone();
+        tracing::debug!(
+            particles = committed.x.len(),
+            cells = grid.cells,
+            ?shape,
+            ?material,
+            "reference MPM solver built"
+        );
+        Ok(Self {
+            grid,
+            shape,
+            material,
+            mass,
+            volume0,
+            width,
+            threshold,
+            committed,
+            trial,
+            trial_pending: false,
+            workspace,
+        })
+    }
+
+    /// The background grid.
+    pub fn grid(&self) -> &Grid {
+        &self.grid
+    }
+
+    /// The particle–node weights in use.
+    pub fn shape(&self) -> Shape {
+        self.shape
+    }
+
+    /// The material.
+    pub fn material(&self) -> &Material {
+        &self.material
+    }
+
+    /// Number of particles.
+    pub fn n_particles(&self) -> usize {
+        self.mass.len()
+    }
+
+    /// GIMP particle widths `l_p`.
+    pub fn widths(&self) -> &[f64] {
+        &self.width
+    }
+
+    /// Nodal mass at or below which a node is inactive
+    /// ([`INACTIVE_MASS_FRACTION`] × total mass / cells).
+    pub fn inactive_mass_threshold(&self) -> f64 {
+        self.threshold
+    }
+
+    /// Total mass `Σ_p m_p`.
+    pub fn total_mass(&self) -> f64 {
+        self.mass.iter().sum()
+    }
+
+    /// Kinetic energy of the committed state, `Σ_p ½ m_p v_p²` (particle velocities).
+    pub fn kinetic_energy(&self) -> f64 {
+        self.mass
+            .iter()
+            .zip(&self.committed.v)
+            .map(|(&m, &v)| 0.5 * m * v * v)
+            .sum()
+    }
+
+    /// Strain energy of the committed state, `Σ_p V_p⁰ W_p` with the stored energy per
+    /// reference volume of [`Material::energy_density`].
+    pub fn strain_energy(&self) -> f64 {
+        self.volume0
+            .iter()
+            .zip(self.committed.sigma.iter().zip(&self.committed.f))
+            .map(|(&v0, (&s, &f))| v0 * self.material.energy_density(s, f))
+            .sum()
+    }
+
+    /// Kinetic plus strain energy of the committed state.
+    pub fn total_energy(&self) -> f64 {
+        self.kinetic_energy() + self.strain_energy()
+    }
+
+    /// Total momentum of the committed state, `Σ_p m_p v_p`.
+    pub fn total_momentum(&self) -> f64 {
+        self.mass
+            .iter()
+            .zip(&self.committed.v)
+            .map(|(&m, &v)| m * v)
+            .sum()
+    }
+
+    fn state_view<'a>(&'a self, s: &'a State) -> View<'a> {
+        View {
+            t: s.t,
+            step: s.step,
+            grid: &self.grid,
+            x: &s.x,
+            v: &s.v,
+            sigma: &s.sigma,
+            f: &s.f,
+            volume0: &self.volume0,
+            mass: &self.mass,
+            tangent_modulus: s.tangent_modulus(&self.material),
+            density: s.density(&self.mass, &self.volume0),
+            weights: s.weights(&self.grid, self.shape, &self.width),
+            node_mass: &s.node_mass,
+            node_velocity: &s.node_velocity,
+            node_acceleration: &s.node_acceleration,
+            node_active: s.node_active(&self.grid, self.threshold),
+        }
+    }
+}
+
+impl Stepper for ReferenceStepper {
+    fn time(&self) -> f64 {
+        self.committed.t
+    }
+
+    fn step_count(&self) -> u64 {
+        self.committed.step
+    }
+
+    fn try_step(&mut self, dt: f64) -> Result<(), StepError> {
+        self.trial_pending = false;
+        let (t, step) = (self.committed.t, self.committed.step);
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(StepError::InvalidDt { dt, t });
+        }
+        let ctx = Ctx {
+            grid: &self.grid,
+            shape: self.shape,
+            material: self.material,
+            mass: &self.mass,
+            volume0: &self.volume0,
+            width: &self.width,
+            threshold: self.threshold,
+        };
+        self.trial.invalidate();
+        let result = advance(
+            &ctx,
+            &mut self.workspace,
+            &self.committed,
+            &mut self.trial,
+            dt,
+        );
+        match result {
+            Ok(()) => {
+                self.trial.t = t + dt;
+                self.trial.step = step + 1;
+                self.trial_pending = true;
+                tracing::trace!(t, step, dt, "trial step computed");
+                Ok(())
+            }
+            Err(failure) => {
+                let err = match failure {
+                    Failure::NonFinite { field, index } => StepError::NonFinite {
+                        field,
+                        index,
+                        t,
+                        step,
+                        dt,
+                    },
+                    Failure::Inverted { index, f } => StepError::Inverted {
+                        index,
+                        f,
+                        t,
+                        step,
+                        dt,
+                    },
+                    Failure::OutOfDomain { index, x } => StepError::OutOfDomain {
+                        index,
+                        x,
+                        t,
+                        step,
+                        dt,
+                    },
+                };
+                tracing::debug!(error = %err, "trial step failed");
+                Err(err)
+            }
+        }
+    }
+
+    fn accept(&mut self) -> Result<(), StepError> {
+        if !self.trial_pending {
+            return Err(StepError::NoTrial);
+        }
+        std::mem::swap(&mut self.committed, &mut self.trial);
+        self.trial_pending = false;
+        Ok(())
+    }
+
+    fn reject(&mut self) {
+        self.trial_pending = false;
+    }
+
+    fn view(&self) -> View<'_> {
+        self.state_view(&self.committed)
+    }
+
+    fn trial_view(&self) -> Option<View<'_>> {
+        self.trial_pending.then(|| self.state_view(&self.trial))
+    }
+}

@@ -1,0 +1,101 @@
+//! One state buffer of the reference solver (double buffering: committed and trial).
+//!
+//! A state at `tⁿ` holds the particle fields `xⁿ, vⁿ, σⁿ, Fⁿ` *and* the nodal sums that the
+//! next step starts from, computed at `xⁿ`: `m_i` (eq 7), `v_i` (eq 17) and `a_i` (eq 18).
+//! Quantities only observers need — the weight matrices `S`, `D`, per-particle tangent
+//! modulus and density, and the node activity flags — are computed lazily on first use
+//! through [`OnceCell`]s and cleared whenever the buffer is overwritten, so the hot step
+//! never builds them.
+
+use super::material::Material;
+use crate::grid::Grid;
+use crate::shape::Shape;
+use crate::weights::Weights;
+use std::cell::OnceCell;
+
+/// Particle and nodal fields of one state, plus lazily computed observer data.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct State {
+    pub t: f64,
+    pub step: u64,
+    pub x: Vec<f64>,
+    pub v: Vec<f64>,
+    pub sigma: Vec<f64>,
+    pub f: Vec<f64>,
+    pub node_mass: Vec<f64>,
+    pub node_velocity: Vec<f64>,
+    pub node_acceleration: Vec<f64>,
+    weights: OnceCell<Weights>,
+    tangent_modulus: OnceCell<Vec<f64>>,
+    density: OnceCell<Vec<f64>>,
+    node_active: OnceCell<Vec<bool>>,
+}
+
+impl State {
+    /// A state with the given particle fields and zeroed nodal arrays of `n_nodes`.
+    pub fn new(x: Vec<f64>, v: Vec<f64>, sigma: Vec<f64>, f: Vec<f64>, n_nodes: usize) -> Self {
+        Self {
+            x,
+            v,
+            sigma,
+            f,
+            node_mass: vec![0.0; n_nodes],
+            node_velocity: vec![0.0; n_nodes],
+            node_acceleration: vec![0.0; n_nodes],
+            ..Self::default()
+        }
+    }
+
+    /// Drops the lazily computed data (call before overwriting the fields).
+    pub fn invalidate(&mut self) {
+        self.weights.take();
+        self.tangent_modulus.take();
+        self.density.take();
+        self.node_active.take();
+    }
+
+    /// `S`, `D` at this state's positions.
+    pub fn weights(&self, grid: &Grid, shape: Shape, width: &[f64]) -> &Weights {
+        self.weights
+            .get_or_init(|| Weights::compute(grid, shape, &self.x, width))
+    }
+
+    /// `E_t(F_p)` per particle.
+    pub fn tangent_modulus(&self, material: &Material) -> &[f64] {
+        self.tangent_modulus.get_or_init(|| {
+            self.f
+                .iter()
+                .map(|&f| material.tangent_modulus(f))
+                .collect()
+        })
+    }
+
+    /// `ρ_p = m_p / (F_p V_p⁰)` per particle.
+    pub fn density(&self, mass: &[f64], volume0: &[f64]) -> &[f64] {
+        self.density.get_or_init(|| {
+            self.f
+                .iter()
+                .zip(mass.iter().zip(volume0))
+                .map(|(&f, (&m, &v0))| m / (f * v0))
+                .collect()
+        })
+    }
+
+    /// Node activity flags: not constrained and `m_i` above `threshold`.
+    pub fn node_active(&self, grid: &Grid, threshold: f64) -> &[bool] {
+        self.node_active.get_or_init(|| {
+            self.node_mass
+                .iter()
+                .enumerate()
+                .map(|(i, &m)| is_active(grid, i, m, threshold))
+                .collect()
+        })
+    }
+}
+
+/// Whether node `i` with mass `m` takes part in the solve (see the module docs of
+/// [`crate::mpm`] for the threshold).
+#[inline]
+pub(crate) fn is_active(grid: &Grid, i: usize, m: f64, threshold: f64) -> bool {
+    m > threshold && !grid.is_constrained(i)
+}

@@ -1,0 +1,359 @@
+//! The fused update-stress-last step (eqs 17–29) and the nodal deposit (eqs 7, 17, 18).
+//!
+//! From a committed state `n` whose nodal arrays hold `m_i`, `v_i` (eq 17) and `a_i`
+//! (eq 18) computed at `xⁿ`, one trial step of size `dt` is
+//!
+//! 1. **grid pass** — `v_iⁿ⁺¹ = v_i + dt a_i` (eq 19); constrained and inactive nodes
+//!    carry `v_i = a_i = 0`, so they stay at rest;
+//! 2. **one particle pass** — with the stencil (`S_ip`, `D_ip`) at `x_pⁿ`:
+//!    `a_p = Σ_i S_ip a_i` (eq 21), `v_pⁿ⁺¹ = v_p + dt a_p` (eq 22),
+//!    `L_p = Σ_i D_ip v_iⁿ⁺¹` (eq 24, the *updated* nodal velocity),
+//!    `Fⁿ⁺¹ = Fⁿ (1 + dt L_p)` (eq 25 with a single `dt`: the paper prints it twice),
+//!    `σⁿ⁺¹` from the material (eq 27 for linear elasticity), `x_pⁿ⁺¹ = x_p + dt v_pⁿ⁺¹`
+//!    (eq 29, wrapped on periodic grids); then, with the stencil at `x_pⁿ⁺¹`, the particle
+//!    deposits `S m_p`, `S m_p v_pⁿ⁺¹` and the internal force `−D σⁿ⁺¹ Fⁿ⁺¹ V⁰` (eq 6) on
+//!    its nodes;
+//! 3. **grid finalize** — `m_i`, `v_i = p_i/m_i` (eq 17) and `a_i = f_i/m_i` (eq 18) of the
+//!    trial state, zero at constrained and inactive nodes.
+//!
+//! So every particle is read and written once per step, and the nodal sums the *next* step
+//! needs are ready when the trial is accepted.
+//!
+//! # Extended lattice
+//!
+//! The hot loop indexes nodal scratch arrays by lattice index `j + 1` (`j ≥ −1`) on an
+//! extended lattice of `N + 4` slots, for both boundaries. On a fixed grid this is exactly
+//! the storage order (ghost, `X_0 … X_N`, ghost, one spare slot that only ever receives
+//! zero weights); on a periodic grid the slots past the ends are images that are folded
+//! onto their periodic nodes after the deposit and filled from them before the gather. The
+//! loop therefore needs no modulo and no branch per node.
+
+use super::material::Material;
+use super::state::{is_active, State};
+use crate::grid::{Boundary, Grid};
+use crate::shape::{ParticleStencil, Shape, MAX_NODES};
+
+/// Constants of a run that the kernel reads.
+pub(crate) struct Ctx<'a> {
+    pub grid: &'a Grid,
+    pub shape: Shape,
+    pub material: Material,
+    pub mass: &'a [f64],
+    pub volume0: &'a [f64],
+    pub width: &'a [f64],
+    /// Nodal mass at or below which a node is inactive.
+    pub threshold: f64,
+}
+
+/// Scratch arrays on the extended lattice, allocated once per solver.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Workspace {
+    /// `(a_i, v_iⁿ⁺¹)` for the gather.
+    gather: Vec<[f64; 2]>,
+    /// `(m_i, p_i, f_i)` accumulated by the deposit.
+    acc: Vec<[f64; 3]>,
+}
+
+impl Workspace {
+    pub fn new(grid: &Grid) -> Self {
+        let n = ext_len(grid);
+        Self {
+            gather: vec![[0.0; 2]; n],
+            acc: vec![[0.0; 3]; n],
+        }
+    }
+}
+
+/// What went wrong in a particle pass (the stepper adds `t`, `step`, `dt`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Failure {
+    NonFinite { field: &'static str, index: usize },
+    Inverted { index: usize, f: f64 },
+    OutOfDomain { index: usize, x: f64 },
+}
+
+/// Number of slots of the extended lattice.
+#[inline]
+fn ext_len(grid: &Grid) -> usize {
+    grid.cells + 4
+}
+
+/// Storage index of extended slot `e` (lattice `j = e − 1`), `None` past a fixed grid.
+#[inline]
+fn ext_to_storage(grid: &Grid, e: usize) -> Option<usize> {
+    let n = grid.cells;
+    match grid.boundary {
+        Boundary::Periodic => Some(if (1..=n).contains(&e) {
+            e - 1
+        } else {
+            (e as i64 - 1).rem_euclid(n as i64) as usize
+        }),
+        Boundary::Fixed => (e < n + 3).then_some(e),
+    }
+}
+
+/// First extended slot of a stencil, clamped so that `MAX_NODES` slots always fit
+/// (in-domain particles never need the clamp; it keeps NaN positions from indexing out
+/// of bounds).
+#[inline(always)]
+fn base_slot(st: &ParticleStencil, max_base: i64) -> usize {
+    (st.first + 1).clamp(0, max_base) as usize
+}
+
+/// Adds one particle's mass, momentum and internal force (eq 6) to the accumulators.
+#[inline(always)]
+fn deposit(acc: &mut [[f64; 3]], st: &ParticleStencil, base: usize, m: f64, mv: f64, sfv: f64) {
+    let slots = &mut acc[base..base + MAX_NODES];
+    for k in 0..MAX_NODES {
+        let (s, d) = (st.s[k], st.d[k]);
+        slots[k][0] += s * m;
+        slots[k][1] += s * mv;
+        slots[k][2] -= d * sfv;
+    }
+}
+
+/// Folds the accumulators onto the stored nodes and computes `m_i`, `v_i`, `a_i`.
+fn finalize(ctx: &Ctx<'_>, acc: &[[f64; 3]], to: &mut State) {
+    let grid = ctx.grid;
+    to.node_mass.fill(0.0);
+    to.node_velocity.fill(0.0);
+    to.node_acceleration.fill(0.0);
+    for (e, a) in acc.iter().enumerate() {
+        if let Some(i) = ext_to_storage(grid, e) {
+            to.node_mass[i] += a[0];
+            to.node_velocity[i] += a[1];
+            to.node_acceleration[i] += a[2];
+        }
+    }
+    for (i, ((&m, v), a)) in to
+        .node_mass
+        .iter()
+        .zip(to.node_velocity.iter_mut())
+        .zip(to.node_acceleration.iter_mut())
+        .enumerate()
+    {
+        if is_active(grid, i, m, ctx.threshold) {
+            let inv = 1.0 / m;
+            *v *= inv;
+            *a *= inv;
+        } else {
+            *v = 0.0;
+            *a = 0.0;
+        }
+    }
+}
+
+/// Computes the nodal arrays of `state` from its particle fields (eqs 7, 17, 18): used
+/// once at set-up; the step does this inside its particle pass.
+pub(crate) fn deposit_state(ctx: &Ctx<'_>, ws: &mut Workspace, state: &mut State) {
+    ws.acc.fill([0.0; 3]);
+    let (h, origin) = (ctx.grid.h, ctx.grid.origin);
+    let max_base = (ext_len(ctx.grid) - MAX_NODES) as i64;
+    for p in 0..state.x.len() {
+        let st = ctx.shape.stencil(state.x[p] - origin, ctx.width[p], h);
+        let base = base_slot(&st, max_base);
+        let m = ctx.mass[p];
+        let sfv = state.sigma[p] * state.f[p] * ctx.volume0[p];
+        deposit(&mut ws.acc, &st, base, m, m * state.v[p], sfv);
+    }
+    finalize(ctx, &ws.acc, state);
+}
+
+/// One trial step of size `dt` from `from` into `to` (see the module docs). `to`'s
+/// particle and nodal arrays must have the lengths of `from`'s.
+pub(crate) fn advance(
+    ctx: &Ctx<'_>,
+    ws: &mut Workspace,
+    from: &State,
+    to: &mut State,
+    dt: f64,
+) -> Result<(), Failure> {
+    // 1. Grid pass (eq 19) onto the extended lattice.
+    for (e, g) in ws.gather.iter_mut().enumerate() {
+        *g = match ext_to_storage(ctx.grid, e) {
+            Some(i) => {
+                let a = from.node_acceleration[i];
+                [a, from.node_velocity[i] + dt * a]
+            }
+            None => [0.0, 0.0],
+        };
+    }
+    ws.acc.fill([0.0; 3]);
+
+    // 2. Fused particle pass, monomorphised over shape, boundary and material.
+    let h = ctx.grid.h;
+    let flags = match (ctx.shape, ctx.grid.boundary) {
+        (Shape::Gimp, Boundary::Periodic) => {
+            with_material::<_, true>(ctx, ws, from, to, dt, |x, l| Shape::Gimp.stencil(x, l, h))
+        }
+        (Shape::Gimp, Boundary::Fixed) => {
+            with_material::<_, false>(ctx, ws, from, to, dt, |x, l| Shape::Gimp.stencil(x, l, h))
+        }
+        (Shape::Linear, Boundary::Periodic) => {
+            with_material::<_, true>(ctx, ws, from, to, dt, |x, l| Shape::Linear.stencil(x, l, h))
+        }
+        (Shape::Linear, Boundary::Fixed) => {
+            with_material::<_, false>(ctx, ws, from, to, dt, |x, l| Shape::Linear.stencil(x, l, h))
+        }
+    };
+
+    // Failures, most basic first.
+    if !flags.finite_sum.is_finite() {
+        let fields: [(&'static str, &[f64]); 4] = [
+            ("x", &to.x),
+            ("v", &to.v),
+            ("sigma", &to.sigma),
+            ("F", &to.f),
+        ];
+        let first = fields
+            .iter()
+            .filter_map(|(field, vals)| {
+                vals.iter()
+                    .position(|v| !v.is_finite())
+                    .map(|index| (index, *field))
+            })
+            .min_by_key(|&(index, _)| index);
+        // A finite state whose |values| merely overflowed the sum is not a failure.
+        if let Some((index, field)) = first {
+            return Err(Failure::NonFinite { field, index });
+        }
+    }
+    if let Some(index) = flags.first_inverted {
+        return Err(Failure::Inverted {
+            index,
+            f: to.f[index],
+        });
+    }
+    if let Some(index) = flags.first_out {
+        return Err(Failure::OutOfDomain {
+            index,
+            x: to.x[index],
+        });
+    }
+
+    // 3. Grid finalize of the trial state.
+    finalize(ctx, &ws.acc, to);
+    Ok(())
+}
+
+/// Outcome flags of a particle pass.
+struct PassFlags {
+    /// `Σ_p |x| + |v| + |σ| + |F|` of the trial: finite unless some value is not.
+    finite_sum: f64,
+    first_inverted: Option<usize>,
+    first_out: Option<usize>,
+}
+
+#[inline(always)]
+fn with_material<St, const PERIODIC: bool>(
+    ctx: &Ctx<'_>,
+    ws: &mut Workspace,
+    from: &State,
+    to: &mut State,
+    dt: f64,
+    stencil: St,
+) -> PassFlags
+where
+    St: Fn(f64, f64) -> ParticleStencil,
+{
+    match ctx.material {
+        Material::LinearElastic { youngs_modulus } => {
+            particle_pass::<_, _, PERIODIC>(ctx, ws, from, to, dt, stencil, |s, _f, dt_l| {
+                s + youngs_modulus * dt_l
+            })
+        }
+        Material::NeoHookean { youngs_modulus } => {
+            let half_e = 0.5 * youngs_modulus;
+            particle_pass::<_, _, PERIODIC>(ctx, ws, from, to, dt, stencil, |_s, f, _dt_l| {
+                half_e * (f - 1.0 / f)
+            })
+        }
+    }
+}
+
+/// The fused particle pass (step 2 of the module docs).
+#[inline(always)]
+fn particle_pass<St, Up, const PERIODIC: bool>(
+    ctx: &Ctx<'_>,
+    ws: &mut Workspace,
+    from: &State,
+    to: &mut State,
+    dt: f64,
+    stencil: St,
+    update_stress: Up,
+) -> PassFlags
+where
+    St: Fn(f64, f64) -> ParticleStencil,
+    Up: Fn(f64, f64, f64) -> f64,
+{
+    let grid = ctx.grid;
+    let origin = grid.origin;
+    let length = grid.length();
+    let upper = origin + length;
+    let max_base = (ext_len(grid) - MAX_NODES) as i64;
+    let gather = ws.gather.as_slice();
+    let acc = ws.acc.as_mut_slice();
+
+    let n = from.x.len();
+    let (x0, v0, s0, f0) = (&from.x[..n], &from.v[..n], &from.sigma[..n], &from.f[..n]);
+    let (mass, vol0, width) = (&ctx.mass[..n], &ctx.volume0[..n], &ctx.width[..n]);
+    let (x1, v1, s1, f1) = (
+        &mut to.x[..n],
+        &mut to.v[..n],
+        &mut to.sigma[..n],
+        &mut to.f[..n],
+    );
+
+    let mut finite_sum = 0.0;
+    let mut first_inverted = None;
+    let mut first_out = None;
+    for p in 0..n {
+        let (x, l) = (x0[p], width[p]);
+        // Gather at xⁿ (eqs 21, 24).
+        let st = stencil(x - origin, l);
+        let base = base_slot(&st, max_base);
+        let g = &gather[base..base + MAX_NODES];
+        let mut a_p = 0.0;
+        let mut grad_v = 0.0;
+        for k in 0..MAX_NODES {
+            a_p += st.s[k] * g[k][0];
+            grad_v += st.d[k] * g[k][1];
+        }
+        // Particle update (eqs 22, 25, 27, 29).
+        let v_new = v0[p] + dt * a_p;
+        let dt_l = dt * grad_v;
+        let f_new = f0[p] * (1.0 + dt_l);
+        let s_new = update_stress(s0[p], f_new, dt_l);
+        let mut x_new = x + dt * v_new;
+        finite_sum += x_new.abs() + v_new.abs() + s_new.abs() + f_new.abs();
+        if !(f_new > 0.0) && first_inverted.is_none() {
+            first_inverted = Some(p);
+        }
+        let inside = if PERIODIC {
+            x_new = grid.wrap(x_new);
+            true
+        } else {
+            x_new >= origin && x_new <= upper
+        };
+        x1[p] = x_new;
+        v1[p] = v_new;
+        s1[p] = s_new;
+        f1[p] = f_new;
+        if !inside {
+            if first_out.is_none() {
+                first_out = Some(p);
+            }
+            continue;
+        }
+        // Deposit at xⁿ⁺¹ (eqs 6, 7, 17).
+        let st = stencil(x_new - origin, l);
+        let base = base_slot(&st, max_base);
+        let m = mass[p];
+        deposit(acc, &st, base, m, m * v_new, s_new * f_new * vol0[p]);
+    }
+    PassFlags {
+        finite_sum,
+        first_inverted,
+        first_out,
+    }
+}
