@@ -103,7 +103,7 @@ impl LanczosConfig {
 }
 
 /// The result of one λmax update.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct LambdaEstimate {
     /// `λmax(B)` estimate (the largest Ritz value; a lower bound on the true value).
     pub lambda_b: f64,
@@ -119,6 +119,17 @@ pub struct LambdaEstimate {
     pub converged: bool,
     /// Whether this update started from the previous eigenvector.
     pub warm: bool,
+}
+
+/// The checkpointable part of a [`LambdaMaxTracker`].
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct TrackerState {
+    /// The warm-start vector.
+    pub vector: Vec<f64>,
+    /// The last estimate.
+    pub last: Option<LambdaEstimate>,
+    /// Updates so far (for the periodic restarts).
+    pub updates: usize,
 }
 
 /// Follows `λmax(B)` from step to step, keeping the last eigenvector as the next start.
@@ -165,6 +176,23 @@ impl LambdaMaxTracker {
     /// The current eigenvector estimate (empty before the first update).
     pub fn vector(&self) -> &[f64] {
         &self.vector
+    }
+
+    /// The warm-start state (for checkpoints): restoring it with [`Self::restore`] makes the
+    /// next updates bit-identical.
+    pub fn state(&self) -> TrackerState {
+        TrackerState {
+            vector: self.vector.clone(),
+            last: self.last,
+            updates: self.updates,
+        }
+    }
+
+    /// Restores a state from [`Self::state`].
+    pub fn restore(&mut self, state: TrackerState) {
+        self.vector = state.vector;
+        self.last = state.last;
+        self.updates = state.updates;
     }
 
     /// Forgets the warm start (the next update starts from the checkerboard).

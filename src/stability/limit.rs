@@ -131,9 +131,45 @@ impl Stability {
     }
 }
 
+/// What [`StepLimit::save_state`] stores: the safety factor and the tracker's warm start.
+#[derive(serde::Serialize, serde::Deserialize)]
+struct SavedState {
+    safety: f64,
+    tracker: super::lambda_max::TrackerState,
+}
+
 impl StepLimit for Stability {
     fn name(&self) -> &str {
         "stability"
+    }
+
+    /// Multiplies the safety factor by `factor` (ignored unless `0 < factor ≤ 1`).
+    fn scale_safety(&mut self, factor: f64) {
+        if factor > 0.0 && factor <= 1.0 {
+            let new = self.config.safety * factor;
+            tracing::debug!(old = self.config.safety, new, "stability safety scaled");
+            self.config.safety = new;
+        }
+    }
+
+    fn save_state(&self) -> Option<serde_json::Value> {
+        serde_json::to_value(SavedState {
+            safety: self.config.safety,
+            tracker: self.tracker.state(),
+        })
+        .ok()
+    }
+
+    fn restore_state(&mut self, state: &serde_json::Value) -> Result<(), LimitError> {
+        let saved: SavedState =
+            serde_json::from_value(state.clone()).map_err(|e| LimitError::Other {
+                limit: "stability".into(),
+                message: format!("cannot restore state: {e}"),
+            })?;
+        check_safety(saved.safety).map_err(|e| e.into_limit_error("stability", f64::NAN))?;
+        self.config.safety = saved.safety;
+        self.tracker.restore(saved.tracker);
+        Ok(())
     }
 
     fn propose(&mut self, state: &View<'_>) -> Result<Proposal, LimitError> {

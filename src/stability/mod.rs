@@ -58,6 +58,7 @@
 //!   (see [`bound58`]).
 
 pub mod bound58;
+pub mod empirical;
 
 mod error;
 pub mod full_map;
@@ -68,9 +69,10 @@ pub mod sound_speed;
 
 pub use error::StabilityError;
 pub use full_map::{FullMap, FullMapConfig};
-pub use lambda_max::{LambdaEstimate, LambdaMaxTracker, LanczosConfig};
+pub use lambda_max::{LambdaEstimate, LambdaMaxTracker, LanczosConfig, TrackerState};
 
 pub use bound58::{bound58, Bound58, Bound58Reading};
+pub use empirical::{EmpiricalConfig, EmpiricalCritical, Protocol, RunOutcome};
 pub use limit::{Stability, StabilityConfig};
 pub use operator::Eq56Operator;
 pub use sound_speed::{SoundSpeed, SoundSpeedConfig};

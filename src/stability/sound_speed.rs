@@ -89,6 +89,14 @@ impl StepLimit for SoundSpeed {
         "sound_speed"
     }
 
+    /// Multiplies `α` by `factor` (ignored unless `0 < factor ≤ 1`): when the controller's
+    /// growth monitor sees an instability, a binding sound-speed limit must back off too.
+    fn scale_safety(&mut self, factor: f64) {
+        if factor > 0.0 && factor <= 1.0 {
+            self.config.alpha *= factor;
+        }
+    }
+
     fn propose(&mut self, state: &View<'_>) -> Result<Proposal, LimitError> {
         let (c, v) = Self::speeds(state).map_err(|e| e.into_limit_error("sound_speed", state.t))?;
         let dt = self.config.alpha * state.grid.h / (c + v);
