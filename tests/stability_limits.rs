@@ -140,3 +140,41 @@ fn eq58_exceeds_one_above_the_critical_step_on_a_jittered_layout() {
         }
     ));
 }
+
+/// A saved and restored Stability limit proposes bit-identically; `scale_safety` multiplies
+/// the safety factor (and α for SoundSpeed); invalid factors are ignored.
+#[test]
+fn checkpoint_and_scale_safety() {
+    let mut fx = Fixture::new(
+        periodic(16, 1.0),
+        Shape::Gimp,
+        jittered(16, 1.0, 2, 0.6, 9),
+        1.0,
+        1.0,
+    );
+    let mut a = Stability::default();
+    a.propose(&fx.view()).unwrap();
+    a.scale_safety(0.5);
+    assert!((a.safety() - 0.45).abs() < 1e-15);
+    a.scale_safety(2.0);
+    a.scale_safety(f64::NAN);
+    assert!((a.safety() - 0.45).abs() < 1e-15);
+    let saved = a.save_state().unwrap();
+    let mut b = Stability::default();
+    b.restore_state(&saved).unwrap();
+    for step in 0..12 {
+        for x in fx.x.iter_mut() {
+            *x = fx.grid.wrap(*x + 1e-3 * (step as f64 + *x).sin() / 16.0);
+        }
+        fx.refresh();
+        let pa = a.propose(&fx.view()).unwrap();
+        let pb = b.propose(&fx.view()).unwrap();
+        assert_eq!(pa.dt.to_bits(), pb.dt.to_bits());
+    }
+    assert!(b
+        .restore_state(&serde_json::json!({"safety": 3.0}))
+        .is_err());
+    let mut s = SoundSpeed::new(SoundSpeedConfig { alpha: 0.5 }).unwrap();
+    s.scale_safety(0.5);
+    assert!((s.config().alpha - 0.25).abs() < 1e-15);
+}
