@@ -25,6 +25,23 @@
 //! `controller` is kept as an untyped JSON value for now: the controller's configuration
 //! type will replace it, and until then it is stored but not interpreted.
 //!
+//! ```
+//! use mpm_dt::scenario::Scenario;
+//! use mpm_dt::Stepper;
+//!
+//! let scenario = Scenario::from_json(r#"{"cells": 40, "particles": {"per_cell": 2}}"#)?;
+//! let wave = scenario.standing_wave().unwrap(); // the exact solution
+//! let mut solver = scenario.build()?;
+//! let dt = 0.5 * solver.grid().h / scenario.wave_speed();
+//! while solver.time() < 0.25 {
+//!     solver.try_step(dt)?;
+//!     solver.accept()?;
+//! }
+//! let view = solver.view();
+//! assert!((view.v[10] - wave.velocity(view.x[10], view.t)).abs() < 1e-3);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
 //! Loading never panics: malformed JSON, unknown fields (also inside `particles` and
 //! `initial`), values of the wrong type and invalid values are [`ScenarioError`]s that name
 //! the field.
@@ -280,6 +297,12 @@ impl Scenario {
             return Err(invalid(
                 "cells",
                 format!("{} must be in 1..={MAX_CELLS}", self.cells),
+            ));
+        }
+        if self.boundary == Boundary::Periodic && self.cells < 3 {
+            return Err(invalid(
+                "cells",
+                format!("{} cells: a periodic bar needs at least 3", self.cells),
             ));
         }
         positive("length", self.length)?;

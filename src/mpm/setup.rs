@@ -110,6 +110,14 @@ pub(crate) fn validate_grid(grid: &Grid) -> Result<(), SetupError> {
             reason: "cells must be at least 1".into(),
         });
     }
+    if grid.boundary == Boundary::Periodic && grid.cells < 3 {
+        return Err(SetupError::Grid {
+            reason: format!(
+                "a periodic grid needs at least 3 cells (has {}): on fewer a particle touches one node twice",
+                grid.cells
+            ),
+        });
+    }
     if grid.cells > (u32::MAX as usize) - 8 {
         return Err(SetupError::Grid {
             reason: format!("cells = {} is too large", grid.cells),

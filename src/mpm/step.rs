@@ -104,11 +104,10 @@ fn base_slot(st: &ParticleStencil, max_base: i64) -> usize {
 #[inline(always)]
 fn deposit(acc: &mut [[f64; 3]], st: &ParticleStencil, base: usize, m: f64, mv: f64, sfv: f64) {
     let slots = &mut acc[base..base + MAX_NODES];
-    for k in 0..MAX_NODES {
-        let (s, d) = (st.s[k], st.d[k]);
-        slots[k][0] += s * m;
-        slots[k][1] += s * mv;
-        slots[k][2] -= d * sfv;
+    for ((slot, &s), &d) in slots.iter_mut().zip(&st.s).zip(&st.d) {
+        slot[0] += s * m;
+        slot[1] += s * mv;
+        slot[2] -= d * sfv;
     }
 }
 
@@ -315,9 +314,9 @@ where
         let g = &gather[base..base + MAX_NODES];
         let mut a_p = 0.0;
         let mut grad_v = 0.0;
-        for k in 0..MAX_NODES {
-            a_p += st.s[k] * g[k][0];
-            grad_v += st.d[k] * g[k][1];
+        for ((node, &s), &d) in g.iter().zip(&st.s).zip(&st.d) {
+            a_p += s * node[0];
+            grad_v += d * node[1];
         }
         // Particle update (eqs 22, 25, 27, 29).
         let v_new = v0[p] + dt * a_p;
@@ -326,7 +325,8 @@ where
         let s_new = update_stress(s0[p], f_new, dt_l);
         let mut x_new = x + dt * v_new;
         finite_sum += x_new.abs() + v_new.abs() + s_new.abs() + f_new.abs();
-        if !(f_new > 0.0) && first_inverted.is_none() {
+        if f_new.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) && first_inverted.is_none()
+        {
             first_inverted = Some(p);
         }
         let inside = if PERIODIC {

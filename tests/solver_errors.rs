@@ -1,0 +1,197 @@
+//! Bad particle data are typed `SetupError`s; failing trial steps are typed `StepError`s
+//! that leave the committed state untouched.
+
+use mpm_dt::mpm::{Material, ParticleInit, ReferenceStepper, SetupError};
+use mpm_dt::problems::StandingWave;
+use mpm_dt::{Boundary, Grid, Shape, StepError, Stepper};
+
+fn good(grid: &Grid) -> ParticleInit {
+    StandingWave::new(0.01, 1.0, 1.0, 1.0, grid.length()).uniform_particles(grid, 2)
+}
+
+const E1: Material = Material::LinearElastic {
+    youngs_modulus: 1.0,
+};
+
+#[test]
+fn bad_particle_data_are_setup_errors() {
+    let grid = Grid::new(Boundary::Periodic, 8, 1.0);
+    type Edit = fn(&mut ParticleInit);
+    type Expected = fn(&SetupError) -> bool;
+    let cases: [(&str, Edit, Expected); 9] = [
+        (
+            "short v",
+            |p| {
+                p.v.pop();
+            },
+            |e| matches!(e, SetupError::Length { field: "v", .. }),
+        ),
+        (
+            "long width",
+            |p| p.width.push(0.1),
+            |e| matches!(e, SetupError::Length { field: "width", .. }),
+        ),
+        (
+            "NaN x",
+            |p| p.x[3] = f64::NAN,
+            |e| {
+                matches!(
+                    e,
+                    SetupError::NonFinite {
+                        field: "x",
+                        index: 3,
+                        ..
+                    }
+                )
+            },
+        ),
+        (
+            "infinite sigma",
+            |p| p.sigma[0] = f64::INFINITY,
+            |e| matches!(e, SetupError::NonFinite { field: "sigma", .. }),
+        ),
+        (
+            "zero F",
+            |p| p.f[2] = 0.0,
+            |e| {
+                matches!(
+                    e,
+                    SetupError::NonPositive {
+                        field: "f",
+                        index: 2,
+                        ..
+                    }
+                )
+            },
+        ),
+        (
+            "negative mass",
+            |p| p.mass[1] = -1.0,
+            |e| matches!(e, SetupError::NonPositive { field: "mass", .. }),
+        ),
+        (
+            "width above h",
+            |p| p.width[4] = 0.2,
+            |e| matches!(e, SetupError::WidthExceedsSpacing { index: 4, .. }),
+        ),
+        (
+            "x at L on a ring",
+            |p| p.x[5] = 1.0,
+            |e| matches!(e, SetupError::OutOfDomain { index: 5, .. }),
+        ),
+        (
+            "no particles",
+            |p| *p = ParticleInit::default(),
+            |e| matches!(e, SetupError::NoParticles),
+        ),
+    ];
+    for (name, edit, is_expected) in cases {
+        let mut p = good(&grid);
+        edit(&mut p);
+        match ReferenceStepper::new(grid.clone(), Shape::Gimp, E1, p) {
+            Ok(_) => panic!("case `{name}` accepted"),
+            Err(e) => assert!(is_expected(&e), "case `{name}`: {e:?}"),
+        }
+    }
+    let bad_e = Material::NeoHookean {
+        youngs_modulus: f64::NAN,
+    };
+    assert!(matches!(
+        ReferenceStepper::new(grid.clone(), Shape::Gimp, bad_e, good(&grid)),
+        Err(SetupError::Material { .. })
+    ));
+    let tiny_ring = Grid::new(Boundary::Periodic, 2, 1.0);
+    assert!(matches!(
+        ReferenceStepper::new(tiny_ring.clone(), Shape::Gimp, E1, good(&tiny_ring)),
+        Err(SetupError::Grid { .. })
+    ));
+}
+
+/// Runs until a step fails; returns the error and checks that the state was untouched.
+fn first_failure(s: &mut ReferenceStepper, dt: f64, max_steps: usize) -> StepError {
+    for _ in 0..max_steps {
+        let before: Vec<u64> = s
+            .view()
+            .x
+            .iter()
+            .chain(s.view().v)
+            .map(|x| x.to_bits())
+            .collect();
+        let (t, n) = (s.time(), s.step_count());
+        match s.try_step(dt) {
+            Ok(()) => s.accept().unwrap(),
+            Err(e) => {
+                let after: Vec<u64> = s
+                    .view()
+                    .x
+                    .iter()
+                    .chain(s.view().v)
+                    .map(|x| x.to_bits())
+                    .collect();
+                assert_eq!(before, after);
+                assert_eq!((s.time().to_bits(), s.step_count()), (t.to_bits(), n));
+                assert!(s.trial_view().is_none());
+                return e;
+            }
+        }
+    }
+    panic!("no failure in {max_steps} steps");
+}
+
+#[test]
+fn invalid_dt_is_refused() {
+    let grid = Grid::new(Boundary::Periodic, 8, 1.0);
+    let mut s = ReferenceStepper::new(grid.clone(), Shape::Gimp, E1, good(&grid)).unwrap();
+    for dt in [0.0, -1e-3, f64::NAN, f64::INFINITY] {
+        assert!(
+            matches!(s.try_step(dt), Err(StepError::InvalidDt { .. })),
+            "dt = {dt}"
+        );
+    }
+    assert_eq!(s.accept(), Err(StepError::NoTrial));
+}
+
+#[test]
+fn unstable_steps_end_in_a_typed_failure() {
+    // Far above the critical step the checkerboard mode grows until a value overflows or
+    // a particle inverts; either way a typed error names the particle.
+    let grid = Grid::new(Boundary::Periodic, 16, 1.0);
+    let mut s = ReferenceStepper::new(grid.clone(), Shape::Gimp, E1, good(&grid)).unwrap();
+    let err = first_failure(&mut s, 3.0 * grid.h, 10_000);
+    assert!(
+        matches!(
+            err,
+            StepError::Inverted { .. } | StepError::NonFinite { .. }
+        ),
+        "{err:?}"
+    );
+}
+
+#[test]
+fn a_particle_leaving_a_clamped_bar_is_out_of_domain() {
+    let grid = Grid::new(Boundary::Fixed, 8, 1.0);
+    let mut p = good(&grid);
+    // The last particle flies off to the right, fast.
+    let last = p.x.len() - 1;
+    p.v.iter_mut().for_each(|v| *v = 0.0);
+    p.v[last] = 100.0;
+    let mut s = ReferenceStepper::new(grid.clone(), Shape::Gimp, E1, p).unwrap();
+    let err = first_failure(&mut s, 1e-3, 100);
+    assert!(
+        matches!(err, StepError::OutOfDomain { index, .. } if index == last),
+        "{err:?}"
+    );
+}
+
+#[test]
+fn compression_to_zero_volume_is_inverted() {
+    // Two particles rushing at each other inside one cell pair invert the material.
+    let grid = Grid::new(Boundary::Periodic, 4, 1.0);
+    let mut p = good(&grid);
+    for (v, &x) in p.v.iter_mut().zip(&p.x) {
+        *v = if x < 0.5 { 50.0 } else { -50.0 };
+    }
+    let mut s = ReferenceStepper::new(grid, Shape::Gimp, E1, p).unwrap();
+    let err = first_failure(&mut s, 0.01, 1000);
+    assert!(matches!(err, StepError::Inverted { .. }), "{err:?}");
+}
