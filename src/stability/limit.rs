@@ -24,7 +24,7 @@
 use super::bound58::{bound58, Bound58Reading};
 use super::error::StabilityError;
 use super::lambda_max::{LambdaEstimate, LambdaMaxTracker, LanczosConfig};
-use super::operator::Eq56Operator;
+use super::operator::{Eq56Operator, OperatorBuffers};
 use crate::limit::{Judgement, LimitError, Metrics, Proposal, RejectCause, StepLimit, Verdict};
 use crate::stepper::View;
 
@@ -72,6 +72,7 @@ fn check_safety(safety: f64) -> Result<(), StabilityError> {
 pub struct Stability {
     config: StabilityConfig,
     tracker: LambdaMaxTracker,
+    buffers: OperatorBuffers,
 }
 
 impl Stability {
@@ -88,6 +89,7 @@ impl Stability {
         Ok(Self {
             config,
             tracker: LambdaMaxTracker::new(config.lanczos)?,
+            buffers: OperatorBuffers::default(),
         })
     }
 
@@ -126,8 +128,10 @@ impl Stability {
 
     /// Updates λmax for `state` and returns the estimate.
     pub fn estimate(&mut self, state: &View<'_>) -> Result<LambdaEstimate, StabilityError> {
-        let op = Eq56Operator::new(state)?;
-        self.tracker.update(&op)
+        let op = Eq56Operator::new_in(state, std::mem::take(&mut self.buffers))?;
+        let est = self.tracker.update(&op);
+        self.buffers = op.into_buffers();
+        est
     }
 }
 

@@ -16,6 +16,13 @@ use crate::stepper::View;
 use crate::weights::Weights;
 use faer::Mat;
 
+/// Reusable allocations of an [`Eq56Operator`].
+#[derive(Clone, Debug, Default)]
+pub struct OperatorBuffers {
+    scale: Vec<f64>,
+    inv_mass: Vec<f64>,
+}
+
 /// The symmetric form `B` of the eq 56 operator on one state, ready to apply.
 ///
 /// Built from any [`View`]; keeps `s_p = √(E_p V_p)` and `1/m_i` (0 at inactive and
@@ -27,8 +34,9 @@ pub struct Eq56Operator<'a> {
     scale: Vec<f64>,
     inv_mass: Vec<f64>,
     c2_ref: f64,
-    modulus: Vec<f64>,
-    volume: Vec<f64>,
+    modulus: &'a [f64],
+    f: &'a [f64],
+    volume0: &'a [f64],
 }
 
 impl<'a> Eq56Operator<'a> {
@@ -36,25 +44,32 @@ impl<'a> Eq56Operator<'a> {
     /// moduli, volumes, densities, on an active node with non-positive mass, and when no
     /// node is active.
     pub fn new(view: &View<'a>) -> Result<Self, StabilityError> {
+        Self::new_in(view, OperatorBuffers::default())
+    }
+
+    /// [`Self::new`] reusing the allocations of an earlier operator (see
+    /// [`Self::into_buffers`]): avoids allocating and faulting in fresh pages every step.
+    pub fn new_in(view: &View<'a>, buffers: OperatorBuffers) -> Result<Self, StabilityError> {
         check_view(view)?;
-        let volume: Vec<f64> = view
-            .f
-            .iter()
-            .zip(view.volume0)
-            .map(|(f, v0)| f * v0)
-            .collect();
-        let modulus = view.tangent_modulus.to_vec();
-        let scale = modulus
-            .iter()
-            .zip(&volume)
-            .map(|(e, v)| (e * v).sqrt())
-            .collect();
-        let inv_mass = view
-            .node_mass
-            .iter()
-            .zip(view.node_active)
-            .map(|(&m, &a)| if a { 1.0 / m } else { 0.0 })
-            .collect();
+        let OperatorBuffers {
+            mut scale,
+            mut inv_mass,
+        } = buffers;
+        scale.clear();
+        scale.extend(
+            view.tangent_modulus
+                .iter()
+                .zip(view.f.iter().zip(view.volume0))
+                .map(|(e, (f, v0))| (e * f * v0).sqrt()),
+        );
+        inv_mass.clear();
+        inv_mass.extend(view.node_mass.iter().zip(view.node_active).map(|(&m, &a)| {
+            if a {
+                1.0 / m
+            } else {
+                0.0
+            }
+        }));
         let c2_ref = view
             .tangent_modulus
             .iter()
@@ -67,9 +82,18 @@ impl<'a> Eq56Operator<'a> {
             scale,
             inv_mass,
             c2_ref,
-            modulus,
-            volume,
+            modulus: view.tangent_modulus,
+            f: view.f,
+            volume0: view.volume0,
         })
+    }
+
+    /// Gives back the allocations for [`Self::new_in`].
+    pub fn into_buffers(self) -> OperatorBuffers {
+        OperatorBuffers {
+            scale: self.scale,
+            inv_mass: self.inv_mass,
+        }
     }
 
     /// Dimension (number of particles).
@@ -90,12 +114,12 @@ impl<'a> Eq56Operator<'a> {
 
     /// Per-particle moduli `E_p`.
     pub fn modulus(&self) -> &[f64] {
-        &self.modulus
+        self.modulus
     }
 
-    /// Per-particle current volumes `V_p = F_p V_p⁰`.
-    pub fn volume(&self) -> &[f64] {
-        &self.volume
+    /// Current volume `V_p = F_p V_p⁰` of particle `p`.
+    pub fn volume(&self, p: usize) -> f64 {
+        self.f[p] * self.volume0[p]
     }
 
     /// `1/m_i` at active nodes, 0 elsewhere (the diagonal `M` of eq 56).
@@ -198,7 +222,7 @@ impl<'a> Eq56Operator<'a> {
         let n = self.dim();
         Mat::from_fn(n, n, |p, q| {
             let delta = if p == q { 1.0 } else { 0.0 };
-            delta - dt * dt * self.modulus[p] * k[(p, q)] * self.volume[q]
+            delta - dt * dt * self.modulus[p] * k[(p, q)] * self.volume(q)
         })
     }
 
