@@ -68,6 +68,7 @@ fn uniform_gimp_gives_four_and_h_over_sqrt2_c() {
             tol: 1e-8,
             value_tol: 0.0,
             restart_every: 0,
+            restart_iter: 20,
             max_iter: 200,
         };
         let mut tr = LambdaMaxTracker::new(tight).unwrap();
@@ -111,7 +112,7 @@ proptest! {
         let view = fx.view();
         let op = Eq56Operator::new(&view).unwrap();
         let dense = op.dense_lambda_max().unwrap();
-        let mut tr = LambdaMaxTracker::new(LanczosConfig { tol: 1e-9, value_tol: 0.0, restart_every: 0, max_iter: 400 }).unwrap();
+        let mut tr = LambdaMaxTracker::new(LanczosConfig { tol: 1e-9, value_tol: 0.0, restart_every: 0, restart_iter: 20, max_iter: 400 }).unwrap();
         let est = tr.update(&op).unwrap();
         prop_assert!(rel(est.lambda_b, dense) < 1e-6, "lanczos {} dense {} {:?}", est.lambda_b, dense, est);
     }

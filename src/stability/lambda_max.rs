@@ -62,6 +62,9 @@ pub struct LanczosConfig {
     /// Every this many updates, also run a cold start and keep the larger value (default 10;
     /// 0 never restarts). See "Level crossings" in the module docs.
     pub restart_every: usize,
+    /// Most applications of `B` of each periodic cold restart (default 20): the restart only
+    /// has to notice a larger eigenvalue, not converge it (the warm updates that follow do).
+    pub restart_iter: usize,
     /// Most applications of `B` per update (default 60). Reaching it is not an error: the
     /// best Ritz value is returned with `converged = false`.
     pub max_iter: usize,
@@ -73,6 +76,7 @@ impl Default for LanczosConfig {
             tol: 1e-3,
             value_tol: 1e-5,
             restart_every: 10,
+            restart_iter: 20,
             max_iter: 60,
         }
     }
@@ -245,8 +249,12 @@ impl LambdaMaxTracker {
         let (mut est, mut vec) = lanczos(op, start, config, warm, &mut self.work)?;
         self.updates += 1;
         if warm && config.restart_every > 0 && self.updates.is_multiple_of(config.restart_every) {
+            let restart = LanczosConfig {
+                max_iter: config.restart_iter.clamp(1, config.max_iter),
+                ..config
+            };
             let (cold, cold_vec) =
-                lanczos(op, checkerboard_start(op), config, false, &mut self.work)?;
+                lanczos(op, checkerboard_start(op), restart, false, &mut self.work)?;
             let applications = est.applications + cold.applications;
             if cold.lambda_b > est.lambda_b {
                 tracing::debug!(
