@@ -8,7 +8,8 @@
 //!
 //! * `h`; `dt_eq49 = h/c` (eq 49 as printed, `c = max √(E/ρ)` at rest);
 //! * `lambda_max` — `λmax(D*F)` in the paper's normalisation (4 on uniform GIMP), from the
-//!   Lanczos tracker (cold start), and `lambda_max_dense` when the problem is small;
+//!   Lanczos tracker (cold start), `lambda_max_dense` when the problem is small, and
+//!   `lambda_max_gershgorin`, the rigorous `O(nnz)` upper bound;
 //! * `dt_eq56 = h √(2/(c² λmax))`;
 //! * `dt_full_map` — the exact frozen-particle critical step of the linearised USL map
 //!   (`null` above 600 particles);
@@ -169,6 +170,7 @@ fn run(args: &Args) -> Result<Value, Box<dyn std::error::Error>> {
         "dt_eq49": dt_eq49,
         "lambda_max": est.lambda_hat,
         "lambda_max_dense": lambda_dense,
+        "lambda_max_gershgorin": op.normalised(op.gershgorin_bound()),
         "lanczos_applications": est.applications,
         "dt_eq56": dt_eq56,
         "dt_full_map": dt_full,

@@ -15,6 +15,6 @@ for f in scenarios/suite/gimp_uniform_ppc1.json scenarios/suite/gimp_uniform_ppc
 import json, sys, os
 f, a, b = sys.argv[1], json.loads(sys.argv[2]), json.loads(sys.argv[3])
 r = lambda d: d / a["dt_eq49"]
-print(f"| {os.path.basename(f)[:-5]} | {a['shape']} | {a['lambda_max']:.4f} | 1 | {r(a['dt_eq56']):.4f} | {r(a['dt_full_map']):.4f} | {r(a['dt_empirical']):.4f} | {r(b['dt_empirical']):.4f} | {r(a['dt_controller']):.4f} |")
+print(f"| {os.path.basename(f)[:-5]} | {a['shape']} | {a['lambda_max']:.4f} | {a['lambda_max_gershgorin']/a['lambda_max']:.4f} | 1 | {r(a['dt_eq56']):.4f} | {r(a['dt_full_map']):.4f} | {r(a['dt_empirical']):.4f} | {r(b['dt_empirical']):.4f} | {r(a['dt_controller']):.4f} |")
 PY
 done
