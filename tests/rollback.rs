@@ -144,7 +144,9 @@ proptest! {
     #[test]
     fn a_rejected_then_retried_step_equals_a_direct_step(
         scenario in scenario(),
-        factors in prop::collection::vec((0.01f64..0.6, 0.01f64..2.0), 1..15),
+        // The second number is the step first tried and thrown away; 1e4·h/c makes that trial
+        // fail (a failed pass must not leave anything behind either).
+        factors in prop::collection::vec((0.01f64..0.6, prop_oneof![4 => 0.01f64..2.0, 1 => Just(1e4)]), 1..15),
     ) {
         let mut direct = scenario.build().unwrap();
         let mut retried = scenario.build().unwrap();

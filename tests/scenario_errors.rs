@@ -264,14 +264,22 @@ fn good_scenarios_parse_and_build() {
 
 #[test]
 fn shipped_scenario_files_parse_and_build() {
-    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/scenarios");
+    // Every `*.json` under `scenarios/`, subdirectories included (e.g. the comparison suite).
+    let mut dirs = vec![std::path::PathBuf::from(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenarios"
+    ))];
     let mut count = 0;
-    for entry in std::fs::read_dir(dir).unwrap() {
-        let path = entry.unwrap().path();
-        if path.extension().is_some_and(|e| e == "json") {
-            let s = Scenario::from_file(&path).unwrap_or_else(|e| panic!("{path:?}: {e}"));
-            s.build().unwrap_or_else(|e| panic!("{path:?}: {e}"));
-            count += 1;
+    while let Some(dir) = dirs.pop() {
+        for entry in std::fs::read_dir(&dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                dirs.push(path);
+            } else if path.extension().is_some_and(|e| e == "json") {
+                let s = Scenario::from_file(&path).unwrap_or_else(|e| panic!("{path:?}: {e}"));
+                s.build().unwrap_or_else(|e| panic!("{path:?}: {e}"));
+                count += 1;
+            }
         }
     }
     assert!(count >= 5, "found {count} scenario files");

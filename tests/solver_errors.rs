@@ -195,3 +195,58 @@ fn compression_to_zero_volume_is_inverted() {
     let err = first_failure(&mut s, 0.01, 1000);
     assert!(matches!(err, StepError::Inverted { .. }), "{err:?}");
 }
+
+#[test]
+fn a_failed_trial_leaves_nothing_behind() {
+    // After a trial that fails (a particle leaves the clamped bar or inverts), the next good step is
+    // bit-identical to the same step on a solver that never failed.
+    let grid = Grid::new(Boundary::Fixed, 8, 1.0);
+    let init = good(&grid);
+    let mut failed = ReferenceStepper::new(grid.clone(), Shape::Gimp, E1, init.clone()).unwrap();
+    let mut fresh = ReferenceStepper::new(grid.clone(), Shape::Gimp, E1, init).unwrap();
+    let err = failed.try_step(1e3).unwrap_err();
+    assert!(
+        matches!(
+            err,
+            StepError::OutOfDomain { .. } | StepError::Inverted { .. }
+        ),
+        "{err:?}"
+    );
+    for s in [&mut failed, &mut fresh] {
+        s.try_step(0.01).unwrap();
+        s.accept().unwrap();
+    }
+    let bits = |s: &ReferenceStepper| -> Vec<u64> {
+        let v = s.view();
+        [
+            v.x,
+            v.v,
+            v.sigma,
+            v.f,
+            v.node_mass,
+            v.node_velocity,
+            v.node_acceleration,
+        ]
+        .iter()
+        .flat_map(|f| f.iter().map(|x| x.to_bits()))
+        .collect()
+    };
+    assert_eq!(bits(&failed), bits(&fresh));
+}
+
+#[test]
+fn an_infinite_velocity_is_non_finite_not_a_panic() {
+    // An overflowing trial (here: an initial velocity near f64::MAX on a clamped bar, so
+    // the trial position is infinite) is a typed error, on both boundaries.
+    for boundary in [Boundary::Fixed, Boundary::Periodic] {
+        let grid = Grid::new(boundary, 8, 1.0);
+        let mut p = good(&grid);
+        p.v[3] = f64::MAX;
+        let mut s = ReferenceStepper::new(grid, Shape::Gimp, E1, p).unwrap();
+        let err = s.try_step(10.0).unwrap_err();
+        assert!(
+            matches!(err, StepError::NonFinite { .. }),
+            "{boundary:?}: {err:?}"
+        );
+    }
+}

@@ -16,8 +16,8 @@
 //!
 //! with `S`, `D` evaluated once at `xⁿ`, and the nodal mass, velocity and acceleration of
 //! the new state `m_i = Σ_p S_ip m_p` (7), `v_i = Σ_p S_ip m_p v_p / m_i` (17),
-//! `a_i = −(1/m_i) Σ_p D_ip σ_p F_p V_p⁰` (18) computed at `xⁿ⁺¹` in the same particle pass
-//! (see [`step`](self) internals in `step.rs`). Choices the paper leaves open:
+//! `a_i = −(1/m_i) Σ_p D_ip σ_p F_p V_p⁰` (18) computed at `xⁿ⁺¹` in the same particle pass, so every
+//! particle is read and written once per step. Choices the paper leaves open:
 //!
 //! * **Inactive nodes**: a node with `m_i ≤ INACTIVE_MASS_FRACTION · M/N` (see
 //!   [`INACTIVE_MASS_FRACTION`]) has `v_i = a_i = 0`. Constrained nodes of a fixed grid
@@ -26,6 +26,11 @@
 //!   untouched: a NaN or infinite trial value (`NonFinite`, found by a cheap accumulated
 //!   check and located only when it fails), `F ≤ 0` (`Inverted`), a particle leaving a fixed
 //!   domain (`OutOfDomain`). Periodic positions are wrapped into `[a, a + L)`.
+//! * **Stress measure**: in 1D the cross-section does not change, so the Cauchy stress is
+//!   also the first Piola–Kirchhoff stress; eq 18's `σ_p F_p V_p⁰` is `σ_p` times the current
+//!   volume.
+//! * **Threading**: the solver is `Send` but not `Sync` (the lazily computed view data live
+//!   in `OnceCell`s).
 //! * **GIMP width** `l_p` is fixed for the run (the particle domain is not stretched by `F`),
 //!   and must satisfy `0 < l_p ≤ h`.
 
@@ -33,8 +38,9 @@ mod material;
 mod reference;
 mod setup;
 mod state;
+mod stencil;
 mod step;
 
 pub use material::Material;
-pub use reference::{ReferenceStepper, INACTIVE_MASS_FRACTION};
+pub use reference::{ReferenceStepper, SolverCheckpoint, INACTIVE_MASS_FRACTION};
 pub use setup::{ParticleInit, SetupError};

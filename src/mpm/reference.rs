@@ -7,6 +7,7 @@ use super::step::{advance, deposit_state, Ctx, Failure, Workspace};
 use crate::grid::Grid;
 use crate::shape::Shape;
 use crate::stepper::{StepError, Stepper, View};
+use serde::{Deserialize, Serialize};
 
 /// Nodes whose mass is at most this fraction of the mean nodal mass `M/N` (total particle
 /// mass over number of cells) are *inactive*: their velocity and acceleration are set to
@@ -14,6 +15,27 @@ use crate::stepper::{StepError, Stepper, View};
 /// purpose: only nodes that particles barely touch are dropped, so the collapse of the
 /// critical step with linear-hat weights and small nodal masses (DESIGN.md) stays visible.
 pub const INACTIVE_MASS_FRACTION: f64 = 1e-12;
+
+/// Everything needed to continue a run of the [`ReferenceStepper`] bit for bit: the
+/// committed state's time, step count and particle fields, and the run's constants (serde;
+/// serialize it with `serde_json`, whose `float_roundtrip` feature keeps every `f64` exact).
+/// The nodal arrays are not stored: [`ReferenceStepper::from_checkpoint`] recomputes them
+/// from the particles with the same arithmetic, in the same order, as the step does.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SolverCheckpoint {
+    /// Time of the committed state.
+    pub t: f64,
+    /// Accepted steps so far.
+    pub step: u64,
+    /// The grid.
+    pub grid: Grid,
+    /// The weights.
+    pub shape: Shape,
+    /// The material.
+    pub material: Material,
+    /// Particle fields of the committed state (`x, v, σ, F`) and constants (`V⁰, m, l`).
+    pub particles: ParticleInit,
+}
 
 /// The reference 1D update-stress-last MPM solver (eqs 17–29; see [`crate::mpm`]).
 ///
@@ -97,6 +119,51 @@ impl ReferenceStepper {
             trial_pending: false,
             workspace,
         })
+    }
+
+    /// The committed state and the run's constants, to restart later
+    /// ([`ReferenceStepper::from_checkpoint`]). A pending trial is not saved.
+    pub fn checkpoint(&self) -> SolverCheckpoint {
+        let c = &self.committed;
+        SolverCheckpoint {
+            t: c.t,
+            step: c.step,
+            grid: self.grid.clone(),
+            shape: self.shape,
+            material: self.material,
+            particles: ParticleInit {
+                x: c.x.clone(),
+                v: c.v.clone(),
+                sigma: c.sigma.clone(),
+                f: c.f.clone(),
+                volume0: self.volume0.clone(),
+                mass: self.mass.clone(),
+                width: self.width.clone(),
+            },
+        }
+    }
+
+    /// A solver continuing from `checkpoint`: the same states, bit for bit, as the run that
+    /// wrote it. Validates like [`ReferenceStepper::new`]; a non-finite or negative time is
+    /// an error too.
+    pub fn from_checkpoint(checkpoint: SolverCheckpoint) -> Result<Self, SetupError> {
+        let SolverCheckpoint {
+            t,
+            step,
+            grid,
+            shape,
+            material,
+            particles,
+        } = checkpoint;
+        if !(t.is_finite() && t >= 0.0) {
+            return Err(SetupError::Time { value: t });
+        }
+        let mut s = Self::new(grid, shape, material, particles)?;
+        for state in [&mut s.committed, &mut s.trial] {
+            state.t = t;
+            state.step = step;
+        }
+        Ok(s)
     }
 
     /// The background grid.

@@ -7,9 +7,10 @@
 //! most three nodes), so wider particles are an error rather than silently wrong weights.
 
 use crate::grid::{Boundary, Grid};
+use serde::{Deserialize, Serialize};
 
-/// Particle fields at `t = 0`. All vectors have one entry per particle.
-#[derive(Clone, Debug, Default, PartialEq)]
+/// Particle fields at `t = 0` (or at a checkpoint). All vectors have one entry per particle.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct ParticleInit {
     /// Positions `x_p` (inside `[a, a + L)` periodic, `[a, a + L]` fixed).
     pub x: Vec<f64>,
@@ -42,6 +43,12 @@ pub enum SetupError {
     #[error("invalid material: youngs_modulus = {value} must be positive and finite")]
     Material {
         /// The offending modulus.
+        value: f64,
+    },
+    /// A checkpoint's time is negative or not finite.
+    #[error("invalid checkpoint time t = {value}")]
+    Time {
+        /// The offending time.
         value: f64,
     },
     /// There are no particles.

@@ -17,7 +17,17 @@
 //!    trial state, zero at constrained and inactive nodes.
 //!
 //! So every particle is read and written once per step, and the nodal sums the *next* step
-//! needs are ready when the trial is accepted.
+//! needs are ready when the trial is accepted. Step 2 runs over blocks of `BLOCK` particles:
+//! first the gather and update of the whole block (independent iterations the CPU overlaps),
+//! then its deposit from the just-written, cache-resident trial fields — the same arithmetic
+//! in the same order as one loop, measured about 1.5× faster. Stencils come from the
+//! branch-free forms of `stencil.rs`; the deposit order is the particle order, so a restart
+//! that recomputes the nodal sums from the particles reproduces them bit for bit.
+//!
+//! Failures are detected without branches in the loop (an accumulated `Σ |x|+|v|+|σ|+|F|`
+//! that is finite unless some value is not, the minimum `F`, an out-of-domain flag) and the
+//! first offending particle is located only when one fires. A failed trial leaves the
+//! committed state and the scratch arrays as they were.
 //!
 //! # Extended lattice
 //!
@@ -30,6 +40,7 @@
 
 use super::material::Material;
 use super::state::{is_active, State};
+use super::stencil;
 use crate::grid::{Boundary, Grid};
 use crate::shape::{ParticleStencil, Shape, MAX_NODES};
 
@@ -93,11 +104,11 @@ fn ext_to_storage(grid: &Grid, e: usize) -> Option<usize> {
 }
 
 /// First extended slot of a stencil, clamped so that `MAX_NODES` slots always fit
-/// (in-domain particles never need the clamp; it keeps NaN positions from indexing out
-/// of bounds).
+/// (in-domain particles never need the clamp; it keeps NaN and infinite positions —
+/// whose `first` is 0 or saturated at `i64::MAX`/`MIN` — from indexing out of bounds).
 #[inline(always)]
 fn base_slot(st: &ParticleStencil, max_base: i64) -> usize {
-    (st.first + 1).clamp(0, max_base) as usize
+    st.first.saturating_add(1).clamp(0, max_base) as usize
 }
 
 /// Adds one particle's mass, momentum and internal force (eq 6) to the accumulators.
@@ -111,30 +122,45 @@ fn deposit(acc: &mut [[f64; 3]], st: &ParticleStencil, base: usize, m: f64, mv: 
     }
 }
 
-/// Folds the accumulators onto the stored nodes and computes `m_i`, `v_i`, `a_i`.
-fn finalize(ctx: &Ctx<'_>, acc: &[[f64; 3]], to: &mut State) {
+/// Folds the accumulators onto the stored nodes, computes `m_i`, `v_i = p_i/m_i`,
+/// `a_i = f_i/m_i` (zero at inactive and constrained nodes) and leaves the accumulators
+/// zeroed for the next deposit, in one pass over the nodes.
+fn finalize(ctx: &Ctx<'_>, acc: &mut [[f64; 3]], to: &mut State) {
     let grid = ctx.grid;
-    to.node_mass.fill(0.0);
-    to.node_velocity.fill(0.0);
-    to.node_acceleration.fill(0.0);
-    for (e, a) in acc.iter().enumerate() {
-        if let Some(i) = ext_to_storage(grid, e) {
-            to.node_mass[i] += a[0];
-            to.node_velocity[i] += a[1];
-            to.node_acceleration[i] += a[2];
+    let n_nodes = grid.n_nodes();
+    // Slot of stored node i: i + 1 (periodic: lattice j = i) or i (fixed: storage order).
+    let offset = match grid.boundary {
+        Boundary::Periodic => {
+            // Fold the image slots (lattice −1, N, N+1, N+2) onto their nodes.
+            for e in [0, n_nodes + 1, n_nodes + 2, n_nodes + 3] {
+                if let Some(i) = ext_to_storage(grid, e) {
+                    let a = std::mem::take(&mut acc[e]);
+                    let slot = &mut acc[i + 1];
+                    slot[0] += a[0];
+                    slot[1] += a[1];
+                    slot[2] += a[2];
+                }
+            }
+            1
         }
-    }
-    for (i, ((&m, v), a)) in to
+        // The spare last slot only ever receives zero weights.
+        Boundary::Fixed => {
+            acc[n_nodes] = [0.0; 3];
+            0
+        }
+    };
+    let nodes = to
         .node_mass
-        .iter()
+        .iter_mut()
         .zip(to.node_velocity.iter_mut())
-        .zip(to.node_acceleration.iter_mut())
-        .enumerate()
-    {
-        if is_active(grid, i, m, ctx.threshold) {
-            let inv = 1.0 / m;
-            *v *= inv;
-            *a *= inv;
+        .zip(to.node_acceleration.iter_mut());
+    for (i, (((m, v), a), slot)) in nodes.zip(&mut acc[offset..offset + n_nodes]).enumerate() {
+        let [mi, pi, fi] = std::mem::take(slot);
+        *m = mi;
+        if is_active(grid, i, mi, ctx.threshold) {
+            let inv = 1.0 / mi;
+            *v = pi * inv;
+            *a = fi * inv;
         } else {
             *v = 0.0;
             *a = 0.0;
@@ -146,16 +172,16 @@ fn finalize(ctx: &Ctx<'_>, acc: &[[f64; 3]], to: &mut State) {
 /// once at set-up; the step does this inside its particle pass.
 pub(crate) fn deposit_state(ctx: &Ctx<'_>, ws: &mut Workspace, state: &mut State) {
     ws.acc.fill([0.0; 3]);
-    let (h, origin) = (ctx.grid.h, ctx.grid.origin);
+    let (inv_h, origin) = (1.0 / ctx.grid.h, ctx.grid.origin);
     let max_base = (ext_len(ctx.grid) - MAX_NODES) as i64;
     for p in 0..state.x.len() {
-        let st = ctx.shape.stencil(state.x[p] - origin, ctx.width[p], h);
+        let st = stencil::of(ctx.shape, state.x[p] - origin, ctx.width[p], inv_h);
         let base = base_slot(&st, max_base);
         let m = ctx.mass[p];
         let sfv = state.sigma[p] * state.f[p] * ctx.volume0[p];
         deposit(&mut ws.acc, &st, base, m, m * state.v[p], sfv);
     }
-    finalize(ctx, &ws.acc, state);
+    finalize(ctx, &mut ws.acc, state);
 }
 
 /// One trial step of size `dt` from `from` into `to` (see the module docs). `to`'s
@@ -177,26 +203,39 @@ pub(crate) fn advance(
             None => [0.0, 0.0],
         };
     }
-    ws.acc.fill([0.0; 3]);
+    // The accumulators are zero here: `finalize` (or a failed pass, below) cleared them.
 
     // 2. Fused particle pass, monomorphised over shape, boundary and material.
-    let h = ctx.grid.h;
+    let inv_h = 1.0 / ctx.grid.h;
     let flags = match (ctx.shape, ctx.grid.boundary) {
         (Shape::Gimp, Boundary::Periodic) => {
-            with_material::<_, true>(ctx, ws, from, to, dt, |x, l| Shape::Gimp.stencil(x, l, h))
+            with_material::<_, true>(ctx, ws, from, to, dt, Fixed::<true>(inv_h))
         }
         (Shape::Gimp, Boundary::Fixed) => {
-            with_material::<_, false>(ctx, ws, from, to, dt, |x, l| Shape::Gimp.stencil(x, l, h))
+            with_material::<_, false>(ctx, ws, from, to, dt, Fixed::<true>(inv_h))
         }
         (Shape::Linear, Boundary::Periodic) => {
-            with_material::<_, true>(ctx, ws, from, to, dt, |x, l| Shape::Linear.stencil(x, l, h))
+            with_material::<_, true>(ctx, ws, from, to, dt, Fixed::<false>(inv_h))
         }
         (Shape::Linear, Boundary::Fixed) => {
-            with_material::<_, false>(ctx, ws, from, to, dt, |x, l| Shape::Linear.stencil(x, l, h))
+            with_material::<_, false>(ctx, ws, from, to, dt, Fixed::<false>(inv_h))
         }
     };
 
-    // Failures, most basic first.
+    if let Some(failure) = first_failure(&flags, to) {
+        // Leave the accumulators clean for the next attempt.
+        ws.acc.fill([0.0; 3]);
+        return Err(failure);
+    }
+
+    // 3. Grid finalize of the trial state.
+    finalize(ctx, &mut ws.acc, to);
+    Ok(())
+}
+
+/// The first failure of a trial, most basic first: non-finite values, then inversion,
+/// then a particle outside a fixed domain.
+fn first_failure(flags: &PassFlags, to: &State) -> Option<Failure> {
     if !flags.finite_sum.is_finite() {
         let fields: [(&'static str, &[f64]); 4] = [
             ("x", &to.x),
@@ -214,26 +253,46 @@ pub(crate) fn advance(
             .min_by_key(|&(index, _)| index);
         // A finite state whose |values| merely overflowed the sum is not a failure.
         if let Some((index, field)) = first {
-            return Err(Failure::NonFinite { field, index });
+            return Some(Failure::NonFinite { field, index });
         }
     }
     if let Some(index) = flags.first_inverted {
-        return Err(Failure::Inverted {
+        return Some(Failure::Inverted {
             index,
             f: to.f[index],
         });
     }
     if let Some(index) = flags.first_out {
-        return Err(Failure::OutOfDomain {
+        return Some(Failure::OutOfDomain {
             index,
             x: to.x[index],
         });
     }
-
-    // 3. Grid finalize of the trial state.
-    finalize(ctx, &ws.acc, to);
-    Ok(())
+    None
 }
+
+/// A stencil evaluator with the shape fixed at compile time, so that the particle pass
+/// inlines it (a closure was not inlined, measured at 40 % of the step).
+trait Stencil {
+    fn at(&self, x: f64, width: f64) -> ParticleStencil;
+}
+
+/// `Fixed::<true>` evaluates GIMP, `Fixed::<false>` linear-hat weights; `.0` is `1/h`.
+struct Fixed<const GIMP: bool>(f64);
+
+impl<const GIMP: bool> Stencil for Fixed<GIMP> {
+    #[inline(always)]
+    fn at(&self, x: f64, width: f64) -> ParticleStencil {
+        if GIMP {
+            stencil::gimp(x, width, self.0)
+        } else {
+            stencil::linear(x, self.0)
+        }
+    }
+}
+
+/// Particles per block of the particle pass (update, then deposit; see `particle_pass`).
+const BLOCK: usize = 256;
 
 /// Outcome flags of a particle pass.
 struct PassFlags {
@@ -253,7 +312,7 @@ fn with_material<St, const PERIODIC: bool>(
     stencil: St,
 ) -> PassFlags
 where
-    St: Fn(f64, f64) -> ParticleStencil,
+    St: Stencil,
 {
     match ctx.material {
         Material::LinearElastic { youngs_modulus } => {
@@ -282,7 +341,7 @@ fn particle_pass<St, Up, const PERIODIC: bool>(
     update_stress: Up,
 ) -> PassFlags
 where
-    St: Fn(f64, f64) -> ParticleStencil,
+    St: Stencil,
     Up: Fn(f64, f64, f64) -> f64,
 {
     let grid = ctx.grid;
@@ -303,54 +362,66 @@ where
         &mut to.f[..n],
     );
 
+    // Branch-free flags: the first offending particle is located afterwards, only when a
+    // flag is raised.
     let mut finite_sum = 0.0;
-    let mut first_inverted = None;
-    let mut first_out = None;
-    for p in 0..n {
-        let (x, l) = (x0[p], width[p]);
-        // Gather at xⁿ (eqs 21, 24).
-        let st = stencil(x - origin, l);
-        let base = base_slot(&st, max_base);
-        let g = &gather[base..base + MAX_NODES];
-        let mut a_p = 0.0;
-        let mut grad_v = 0.0;
-        for ((node, &s), &d) in g.iter().zip(&st.s).zip(&st.d) {
-            a_p += s * node[0];
-            grad_v += d * node[1];
-        }
-        // Particle update (eqs 22, 25, 27, 29).
-        let v_new = v0[p] + dt * a_p;
-        let dt_l = dt * grad_v;
-        let f_new = f0[p] * (1.0 + dt_l);
-        let s_new = update_stress(s0[p], f_new, dt_l);
-        let mut x_new = x + dt * v_new;
-        finite_sum += x_new.abs() + v_new.abs() + s_new.abs() + f_new.abs();
-        if f_new.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) && first_inverted.is_none()
-        {
-            first_inverted = Some(p);
-        }
-        let inside = if PERIODIC {
-            x_new = grid.wrap(x_new);
-            true
-        } else {
-            x_new >= origin && x_new <= upper
-        };
-        x1[p] = x_new;
-        v1[p] = v_new;
-        s1[p] = s_new;
-        f1[p] = f_new;
-        if !inside {
-            if first_out.is_none() {
-                first_out = Some(p);
+    let mut min_f = f64::INFINITY;
+    let mut any_out = false;
+    // Blocks: first the gather and update of a block (independent iterations the CPU can
+    // overlap), then its deposit from the just-written, cache-hot trial fields.
+    let mut start = 0;
+    while start < n {
+        let end = (start + BLOCK).min(n);
+        for p in start..end {
+            let (x, l) = (x0[p], width[p]);
+            // Gather at xⁿ (eqs 21, 24).
+            let st = stencil.at(x - origin, l);
+            let base = base_slot(&st, max_base);
+            let g = &gather[base..base + MAX_NODES];
+            let mut a_p = 0.0;
+            let mut grad_v = 0.0;
+            for ((node, &s), &d) in g.iter().zip(&st.s).zip(&st.d) {
+                a_p += s * node[0];
+                grad_v += d * node[1];
             }
-            continue;
+            // Particle update (eqs 22, 25, 27, 29).
+            let v_new = v0[p] + dt * a_p;
+            let dt_l = dt * grad_v;
+            let f_new = f0[p] * (1.0 + dt_l);
+            let s_new = update_stress(s0[p], f_new, dt_l);
+            let mut x_new = x + dt * v_new;
+            finite_sum += x_new.abs() + v_new.abs() + s_new.abs() + f_new.abs();
+            min_f = min_f.min(f_new);
+            if PERIODIC {
+                x_new = grid.wrap(x_new);
+            } else {
+                any_out |= !(x_new >= origin && x_new <= upper);
+            }
+            x1[p] = x_new;
+            v1[p] = v_new;
+            s1[p] = s_new;
+            f1[p] = f_new;
         }
-        // Deposit at xⁿ⁺¹ (eqs 6, 7, 17).
-        let st = stencil(x_new - origin, l);
-        let base = base_slot(&st, max_base);
-        let m = mass[p];
-        deposit(acc, &st, base, m, m * v_new, s_new * f_new * vol0[p]);
+        // Deposit at xⁿ⁺¹ (eqs 6, 7, 17). Out-of-domain or non-finite particles deposit
+        // on clamped slots: harmless, because such a trial is refused before finalizing.
+        for p in start..end {
+            let st = stencil.at(x1[p] - origin, width[p]);
+            let base = base_slot(&st, max_base);
+            let m = mass[p];
+            deposit(acc, &st, base, m, m * v1[p], s1[p] * f1[p] * vol0[p]);
+        }
+        start = end;
     }
+    let first_inverted = if min_f > 0.0 {
+        None
+    } else {
+        f1.iter().position(|&f| f <= 0.0)
+    };
+    let first_out = if any_out {
+        x1.iter().position(|&x| !(x >= origin && x <= upper))
+    } else {
+        None
+    };
     PassFlags {
         finite_sum,
         first_inverted,

@@ -10,7 +10,7 @@
 //! every proposal (so a proposal costs a few `O(nnz)` applications). The eq 58 value is the
 //! [`Bound58Reading::Consistent`] reading in the strain-energy norm (default): it is a true
 //! lower bound on `ρ(A)`, so a value above 1 *proves* the step's stress amplification
-//! unstable — but it stays near 1 while `ρ(A)` grows (see [`super::bound58`]), which is why
+//! unstable — but it stays near 1 while `ρ(A)` grows (see [`mod@super::bound58`]), which is why
 //! the proposal, not the bound, does the real work.
 //!
 //! The eq 58 value is computed on the *trial* state (its stress field, layout and moduli) at

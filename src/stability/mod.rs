@@ -7,7 +7,7 @@
 //! | [`sound_speed`] | the [`SoundSpeed`] step limit `dt ≤ α h/(c + ‖v‖_∞)` | eq 49, generalised |
 //! | [`operator`] | the eq 56 operator `D*F`, matrix-free in `O(nnz)` and dense (faer) | eqs 50–56 |
 //! | [`lambda_max`] | `λmax(D*F)` by a warm-started Lanczos iteration | eq 56 |
-//! | [`bound58`] | the eq 58 "lower bound" on the amplification-matrix norm | eqs 33, 57, 58 |
+//! | [`mod@bound58`] | the eq 58 "lower bound" on the amplification-matrix norm | eqs 33, 57, 58 |
 //! | [`full_map`] | the exact frozen-particle critical step of the whole USL map | eqs 17–29 linearised |
 //! | [`empirical`] | the critical step found by bisection on real nonlinear runs | DESIGN.md `critical_dt` |
 //! | [`limit`] | the [`Stability`] step limit: `safety·dt_eq56`, rejecting on eq 58 | eqs 56, 58 |
@@ -55,7 +55,7 @@
 //! * with linear-hat weights the critical step collapses near small nodal masses, and the
 //!   tracked `dt_eq56` follows the collapse while eq 49 does not;
 //! * eq 58 is a lower bound only in one of its readings, and stays near 1 while `‖A‖` grows
-//!   (see [`bound58`]).
+//!   (see [`mod@bound58`]).
 
 pub mod bound58;
 pub mod empirical;
