@@ -1,0 +1,118 @@
+//! One warm λmax update vs one reference solver step at 10⁵ particles (same run).
+//!
+//! `cargo bench --bench stability`. The groups measure, on a GIMP bar with 5·10⁴ cells and
+//! two particles per cell after one step of a standing wave:
+//!
+//! * `solver_step` — one `try_step` of the reference solver (the trial is discarded);
+//! * `operator_build` — building the eq 56 operator from the view (`O(n)`);
+//! * `operator_apply` — one application of `B` (`O(nnz)`);
+//! * `gershgorin_bound` — the `O(nnz)` rigorous upper bound on λmax;
+//! * `propose_with_restarts` / `propose_warm_only` — `Stability::propose` (operator build plus
+//!   a warm Lanczos update) alternating between two states one step apart, with the default
+//!   cold restart every 10 updates (the mean per-step cost) and without restarts (the
+//!   typical warm update).
+//!
+//! It also prints the applications of `B` per step over 30 steps (the periodic cold restarts
+//! included), from which the average per-step cost follows as a multiple of `operator_apply`.
+#![allow(missing_docs)]
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use mpm_dt::mpm::{Material, ReferenceStepper};
+use mpm_dt::problems::StandingWave;
+use mpm_dt::stability::{Eq56Operator, LanczosConfig, Stability, StabilityConfig};
+use mpm_dt::{Boundary, Grid, Shape, StepLimit, Stepper};
+use std::hint::black_box;
+
+fn bench(c: &mut Criterion) {
+    let cells = 50_000;
+    let grid = Grid::new(Boundary::Periodic, cells, 1.0);
+    let wave = StandingWave::new(0.01, 1.0, 1.0, 1.0, 1.0);
+    let init = wave.uniform_particles(&grid, 2);
+    let mut s = ReferenceStepper::new(
+        grid.clone(),
+        Shape::Gimp,
+        Material::LinearElastic {
+            youngs_modulus: 1.0,
+        },
+        init,
+    )
+    .expect("valid set-up");
+    let dt = 0.5 * grid.h;
+    // Warm the tracker over 5 steps, then move one more step.
+    let mut limit = Stability::default();
+    for _ in 0..5 {
+        limit.propose(&s.view()).expect("valid state");
+        s.try_step(dt).expect("stable step");
+        s.accept().expect("trial pending");
+    }
+    {
+        let mut l = limit.clone();
+        let mut s2 = s.clone();
+        let mut apps = Vec::new();
+        for _ in 0..30 {
+            let p = l.propose(&s2.view()).expect("valid state");
+            apps.push(p.metrics["lanczos_applications"] as usize);
+            s2.try_step(dt).expect("stable step");
+            s2.accept().expect("trial pending");
+        }
+        let mean = apps.iter().sum::<usize>() as f64 / apps.len() as f64;
+        eprintln!("applications per step over 30 steps: {apps:?}, mean {mean:.2}");
+    }
+
+    let mut g = c.benchmark_group("stability_1e5");
+    g.sample_size(20);
+    g.bench_function("solver_step", |b| {
+        b.iter(|| {
+            s.try_step(black_box(dt)).expect("stable step");
+            s.reject();
+        })
+    });
+    let view = s.view();
+    g.bench_function("operator_build", |b| {
+        b.iter(|| black_box(Eq56Operator::new(&view).expect("valid")))
+    });
+    let op = Eq56Operator::new(&view).expect("valid");
+    g.bench_function("gershgorin_bound", |b| {
+        b.iter(|| black_box(op.gershgorin_bound()))
+    });
+    let x = vec![1.0; op.dim()];
+    let mut y = vec![0.0; op.dim()];
+    let mut work = vec![0.0; grid.n_nodes()];
+    g.bench_function("operator_apply", |b| {
+        b.iter(|| op.apply(black_box(&x), &mut y, &mut work))
+    });
+    // Per-step cost in a run: a persistent limit proposing alternately for two states one
+    // step apart (each proposal warm-started from the other state's eigenvector). With the
+    // default settings this includes the periodic cold restarts (1 in 10 proposals); with
+    // `restart_every = 0` it is the typical warm update.
+    let mut s_next = s.clone();
+    s_next.try_step(dt).expect("stable step");
+    s_next.accept().expect("trial pending");
+    let next = s_next.view();
+    for (name, restart_every) in [("propose_with_restarts", 10), ("propose_warm_only", 0)] {
+        let config = StabilityConfig {
+            lanczos: LanczosConfig {
+                restart_every,
+                ..LanczosConfig::default()
+            },
+            ..StabilityConfig::default()
+        };
+        let mut l = Stability::new(config).expect("valid config");
+        l.propose(&view).expect("valid");
+        l.propose(&next).expect("valid");
+        let mut toggle = false;
+        g.bench_function(name, |b| {
+            b.iter(|| {
+                toggle = !toggle;
+                black_box(
+                    l.propose(if toggle { &view } else { &next })
+                        .expect("valid"),
+                )
+            })
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

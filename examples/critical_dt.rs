@@ -1,0 +1,222 @@
+//! Critical time steps of one scenario, every way this crate knows (DESIGN.md contract).
+//!
+//! ```sh
+//! cargo run --release --example critical_dt -- --scenario FILE [--json] [--amplitude A]
+//! ```
+//!
+//! Prints (as one JSON document with `--json`, logs on stderr):
+//!
+//! * `h`; `dt_eq49 = h/c` (eq 49 as printed, `c = max √(E/ρ)` at rest);
+//! * `lambda_max` — `λmax(D*F)` in the paper's normalisation (4 on uniform GIMP), from the
+//!   Lanczos tracker (cold start), `lambda_max_dense` when the problem is small, and
+//!   `lambda_max_gershgorin`, the rigorous `O(nnz)` upper bound;
+//! * `dt_eq56 = h √(2/(c² λmax))`;
+//! * `dt_full_map` — the exact frozen-particle critical step of the linearised USL map
+//!   (`null` above 600 particles);
+//! * `dt_controller` — the smaller of what the default `Stability` (0.9·dt_eq56) and
+//!   `SoundSpeed` (0.5·h/(c+|v|)) limits propose for the initial state. This is computed from
+//!   the two limits directly, not by running the controller (another module); the controller
+//!   takes the minimum of its limits' proposals, so it is what the controller's first step
+//!   would be without a temporal-error limit;
+//! * `bound58` — `[{dt, dt_over_eq56, value, value_consistent, value_energy, norm_2, rho}]`:
+//!   the eq 58 ratio in the paper's reading (`value`, Euclidean norm) and in the consistent
+//!   reading (Euclidean and strain-energy norms) against the spectral norm `norm_2 = ‖A‖₂`
+//!   and the spectral radius `rho = ρ(A)` (dense; `null` above 600 particles), evaluated on the
+//!   state a quarter period into a run of the protocol at `0.5·dt_eq56` (the initial state has
+//!   `σ = 0`, where eq 58 has no information);
+//! * `dt_empirical` — bisection on real runs (initial `v = A c sin(2πx/L)` + noise
+//!   `10⁻⁶ A c`, `σ = 0`, `F = 1`, 4000 steps, unstable when the energy exceeds 10× its start,
+//!   a value is not finite or some `F ≤ 0`), `A = --amplitude` (default `10⁻⁴`).
+
+use mpm_dt::scenario::Scenario;
+use mpm_dt::stability::operator::spectral_norm;
+use mpm_dt::stability::{
+    bound58, Bound58Reading, EmpiricalConfig, Eq56Operator, FullMap, FullMapConfig,
+    LambdaMaxTracker, LanczosConfig, Protocol, SoundSpeed, Stability,
+};
+use mpm_dt::{StepLimit, Stepper};
+use serde_json::{json, Value};
+use std::process::ExitCode;
+
+const DENSE_LIMIT: usize = 600;
+
+struct Args {
+    scenario: String,
+    json: bool,
+    amplitude: f64,
+}
+
+fn parse_args() -> Result<Args, String> {
+    let mut it = std::env::args().skip(1);
+    let (mut scenario, mut json, mut amplitude) = (None, false, 1e-4);
+    while let Some(a) = it.next() {
+        match a.as_str() {
+            "--scenario" => scenario = Some(it.next().ok_or("--scenario needs a file")?),
+            "--json" => json = true,
+            "--amplitude" => {
+                let v = it.next().ok_or("--amplitude needs a value")?;
+                amplitude = v
+                    .parse::<f64>()
+                    .map_err(|e| format!("--amplitude {v}: {e}"))?;
+            }
+            "-h" | "--help" => {
+                return Err("usage: critical_dt --scenario FILE [--json] [--amplitude A]".into())
+            }
+            other => return Err(format!("unknown argument {other}")),
+        }
+    }
+    Ok(Args {
+        scenario: scenario.ok_or("--scenario FILE is required")?,
+        json,
+        amplitude,
+    })
+}
+
+fn run(args: &Args) -> Result<Value, Box<dyn std::error::Error>> {
+    let scenario = Scenario::from_file(&args.scenario)?;
+    let grid = scenario.grid()?;
+    let layout = scenario.particle_init()?;
+    let material = scenario.material();
+    let config = EmpiricalConfig {
+        amplitude: args.amplitude,
+        ..EmpiricalConfig::default()
+    };
+    let protocol = Protocol::new(grid.clone(), scenario.shape, material, &layout, config)?;
+    let stepper = mpm_dt::mpm::ReferenceStepper::new(
+        grid.clone(),
+        scenario.shape,
+        material,
+        protocol.initial().clone(),
+    )?;
+    let view = stepper.view();
+    let n = view.n_particles();
+    let h = grid.h;
+    let dt_eq49 = SoundSpeed::dt_eq49(&view)?;
+    let op = Eq56Operator::new(&view)?;
+    let est = LambdaMaxTracker::new(LanczosConfig::default())?.update(&op)?;
+    let small = n <= DENSE_LIMIT;
+    let lambda_dense = if small {
+        Some(op.normalised(op.dense_lambda_max()?))
+    } else {
+        None
+    };
+    let dt_eq56 = est.dt_eq56;
+    tracing::info!(
+        n,
+        h,
+        dt_eq49,
+        lambda = est.lambda_hat,
+        dt_eq56,
+        "eq 49 and eq 56"
+    );
+    let dt_full = if small {
+        Some(FullMap::new(&view)?.critical_dt(0.5 * dt_eq56, FullMapConfig::default())?)
+    } else {
+        None
+    };
+    tracing::info!(?dt_full, "full map");
+    let p_stab = Stability::default().propose(&view)?;
+    let p_sound = SoundSpeed::default().propose(&view)?;
+    let dt_controller = p_stab.dt.min(p_sound.dt);
+
+    // eq 58 on the state a quarter period into a stable run.
+    let mut s = mpm_dt::mpm::ReferenceStepper::new(
+        grid.clone(),
+        scenario.shape,
+        material,
+        protocol.initial().clone(),
+    )?;
+    let c = h / dt_eq49;
+    let dt_run = 0.5 * dt_eq56;
+    let quarter = grid.length() / (4.0 * c);
+    let steps = (quarter / dt_run).ceil() as usize;
+    for _ in 0..steps {
+        s.try_step(dt_run)?;
+        s.accept()?;
+    }
+    let sv = s.view();
+    let op_s = Eq56Operator::new(&sv)?;
+    let lam_s = op_s.dense_lambda_max().ok().filter(|_| small);
+    let mut bound = Vec::new();
+    for f in [0.5, 0.9, 1.0, 1.1, 1.5, 2.0] {
+        let dt = f * dt_eq56;
+        let paper = bound58(&sv, dt, Bound58Reading::Paper)?;
+        let cons = bound58(&sv, dt, Bound58Reading::Consistent)?;
+        let norm_2 = if small {
+            Some(spectral_norm(&op_s.dense_amplification(dt))?)
+        } else {
+            None
+        };
+        let rho = lam_s.map(|l| (1.0 - dt * dt * l).abs().max(1.0));
+        bound.push(json!({
+            "dt": dt,
+            "dt_over_eq56": f,
+            "value": paper.map(|b| b.value),
+            "value_consistent": cons.map(|b| b.value),
+            "value_energy": cons.map(|b| b.value_energy),
+            "norm_2": norm_2,
+            "rho": rho,
+        }));
+    }
+
+    let emp = protocol.critical_dt(0.5 * dt_eq49, 1.5 * dt_eq49)?;
+    tracing::info!(?emp, "empirical");
+    Ok(json!({
+        "scenario": args.scenario,
+        "shape": scenario.shape,
+        "particles": n,
+        "h": h,
+        "wave_speed": c,
+        "dt_eq49": dt_eq49,
+        "lambda_max": est.lambda_hat,
+        "lambda_max_dense": lambda_dense,
+        "lambda_max_gershgorin": op.normalised(op.gershgorin_bound()),
+        "lanczos_applications": est.applications,
+        "dt_eq56": dt_eq56,
+        "dt_full_map": dt_full,
+        "dt_controller": dt_controller,
+        "dt_controller_stability": p_stab.dt,
+        "dt_controller_sound_speed": p_sound.dt,
+        "bound58": bound,
+        "amplitude": args.amplitude,
+        "dt_empirical": emp.dt(),
+        "dt_empirical_bracket": [emp.dt_stable, emp.dt_unstable],
+        "empirical_runs": emp.runs,
+        "ratios_to_h_over_c": {
+            "eq56": dt_eq56 / dt_eq49,
+            "full_map": dt_full.map(|d| d / dt_eq49),
+            "empirical": emp.dt() / dt_eq49,
+        },
+    }))
+}
+
+fn main() -> ExitCode {
+    tracing_subscriber::fmt()
+        .with_writer(std::io::stderr)
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_default_env()
+                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info")),
+        )
+        .init();
+    let args = match parse_args() {
+        Ok(a) => a,
+        Err(e) => {
+            eprintln!("{e}");
+            return ExitCode::from(2);
+        }
+    };
+    match run(&args) {
+        Ok(v) => {
+            if args.json {
+                println!("{v}");
+            } else {
+                println!("{}", serde_json::to_string_pretty(&v).unwrap_or_default());
+            }
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -1,0 +1,179 @@
+//! The eq 58 "lower bound" on the norm of the amplification matrix, from the eq 33 estimate.
+//!
+//! ```text
+//! Ea_i ≈ (−1/m̃_i) Σ_p D_ip [ (x_p−X_i)²/2 σ''(X_i) + (x_p−X_i)³/6 σ'''(X_i) ]      (eq 33)
+//! E dt²/h² D*F Δσ = dt² E Σ_i D_ip Ea_i                                             (eq 57)
+//! ‖I − E dt²/h² D*F‖ ≥ |Δσ − dt² E Σ_i D_ip Ea_i| / |Δσ|                             (eq 58)
+//! ```
+//!
+//! with `Δσ` "the term in [...] of eq 33". The bracket is the Taylor remainder of the stress
+//! at particle `p` about node `i`: it depends on the pair `(p, i)`, so "the vector `Δσ`" needs
+//! a reading. Both readings implemented here share these choices:
+//!
+//! * nodal stress `σ_i = Σ_p S_ip m_p σ_p / m_i` (the eq 17 projection) at nodes with mass;
+//!   `σ''(X_i)` by eq 42, `σ'''(X_i)` by the central difference
+//!   `(σ_{i+2} − 2σ_{i+1} + 2σ_{i−1} − σ_{i−2})/(2h³)` (eq 43 as printed is not a difference
+//!   formula); both are 0 where the 5-point stencil leaves the massive nodes (no estimate);
+//! * the volume `V_p = F_p V_p⁰` of eq 18 weights each term, and `Ea_i` carries the sign of
+//!   eq 20, `Ea = a_true − a_computed = +(1/m_i) Σ_p D_ip V_p [...]` (eq 33 as printed has the
+//!   opposite sign, computed − true; with it eq 58's numerator would be `(I + …)Δσ`, not `AΔσ`);
+//! * `Δσ_p` is the bracket of particle `p` about its **nearest** node.
+//!
+//! The readings differ in `Ea`:
+//!
+//! * [`Bound58Reading::Paper`]: `Ea_i` by eq 33 with every particle's bracket about node `i`.
+//!   Eq 57 then holds only approximately and the ratio is **not** a lower bound in general
+//!   (it exceeds `‖A‖₂` on jittered layouts; tested).
+//! * [`Bound58Reading::Consistent`]: `Ea_i = (1/m_i) Σ_q D_iq V_q Δσ_q`, i.e. eq 33 applied to
+//!   the vector `Δσ`, so that eq 57 holds exactly and the numerator is `‖AΔσ‖`. Then the ratio
+//!   is a true lower bound: `≤ ‖A‖₂` in the Euclidean norm and `≤ ρ(A)` in the strain-energy
+//!   norm `‖δσ‖_W = (Σ V_p δσ_p²/E_p)^{1/2}`, in which `A` is normal. But it stays near 1
+//!   while `‖A‖` grows: `Δσ` is smooth (a Taylor remainder of a smooth field) and the
+//!   unstable mode is the checkerboard, so `AΔσ ≈ Δσ − O(dt² h² …)`.
+//!
+//! Both norms are reported: `value` in the Euclidean 2-norm over particles (compare with the
+//! spectral norm `‖A‖₂`), `value_energy` in the strain-energy norm (compare with `ρ(A)`).
+
+use super::error::{check_dt, check_view, StabilityError};
+use crate::grid::Boundary;
+use crate::stepper::View;
+use crate::weights::WeightKind;
+
+/// Which reading of eqs 57–58 (see the module docs).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Bound58Reading {
+    /// `Ea_i` by eq 33 (all brackets about node `i`); not a lower bound in general.
+    Paper,
+    /// `Ea_i` from the vector `Δσ` so that eq 57 holds exactly; a true lower bound.
+    Consistent,
+}
+
+/// The eq 58 ratio in two norms.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct Bound58 {
+    /// `‖Δσ − dt² E Dᵀ Ea‖₂ / ‖Δσ‖₂` (Euclidean norm over particles).
+    pub value: f64,
+    /// The same ratio in the strain-energy norm `(Σ V_p x_p²/E_p)^{1/2}`.
+    pub value_energy: f64,
+    /// `‖Δσ‖₂`, the size of the estimate (0 means no information).
+    pub delta_sigma_norm: f64,
+}
+
+/// The eq 58 ratio of state `view` at step `dt`. `Ok(None)` when `Δσ = 0` (e.g. a stress
+/// field that is zero or linear): the ratio carries no information then.
+pub fn bound58(
+    view: &View<'_>,
+    dt: f64,
+    reading: Bound58Reading,
+) -> Result<Option<Bound58>, StabilityError> {
+    check_view(view)?;
+    check_dt(dt)?;
+    let grid = view.grid;
+    let w = view.weights;
+    let n = view.n_particles();
+    let nn = grid.n_nodes();
+    let h = grid.h;
+    // Nodal stress by the eq 17 projection, at nodes with mass.
+    let ms: Vec<f64> = view
+        .mass
+        .iter()
+        .zip(view.sigma)
+        .map(|(m, s)| m * s)
+        .collect();
+    let mut sig = vec![0.0; nn];
+    w.scatter(WeightKind::S, &ms, &mut sig);
+    let has_mass: Vec<bool> = view.node_mass.iter().map(|&m| m > 0.0).collect();
+    for i in 0..nn {
+        sig[i] = if has_mass[i] {
+            sig[i] / view.node_mass[i]
+        } else {
+            0.0
+        };
+    }
+    let neighbour = |i: usize, k: i64| -> Option<usize> {
+        let j = i as i64 + k;
+        match grid.boundary {
+            Boundary::Periodic => Some(j.rem_euclid(nn as i64) as usize),
+            Boundary::Fixed => (j >= 0 && (j as usize) < nn).then_some(j as usize),
+        }
+        .filter(|&j| has_mass[j])
+    };
+    let mut d2 = vec![0.0; nn];
+    let mut d3 = vec![0.0; nn];
+    for i in 0..nn {
+        if !has_mass[i] {
+            continue;
+        }
+        let st: Option<Vec<usize>> = (-2..=2).map(|k| neighbour(i, k)).collect();
+        if let Some(st) = st {
+            let s = |k: usize| sig[st[k]];
+            d2[i] = (s(3) - 2.0 * s(2) + s(1)) / (h * h);
+            d3[i] = (s(4) - 2.0 * s(3) + 2.0 * s(1) - s(0)) / (2.0 * h * h * h);
+        }
+    }
+    let bracket = |p: usize, i: usize| -> f64 {
+        let r = -grid.offset(i, view.x[p]); // x_p − X_i
+        r * r / 2.0 * d2[i] + r * r * r / 6.0 * d3[i]
+    };
+    // Δσ_p: bracket about the nearest stencil node.
+    let delta: Vec<f64> = (0..n)
+        .map(|p| {
+            let nearest = w
+                .nodes_of(p)
+                .iter()
+                .zip(w.s_of(p))
+                .filter(|(_, &s)| s != 0.0)
+                .map(|(&i, _)| i as usize)
+                .min_by(|&a, &b| {
+                    grid.offset(a, view.x[p])
+                        .abs()
+                        .total_cmp(&grid.offset(b, view.x[p]).abs())
+                });
+            nearest.map_or(0.0, |i| bracket(p, i))
+        })
+        .collect();
+    let volume: Vec<f64> = view
+        .f
+        .iter()
+        .zip(view.volume0)
+        .map(|(f, v)| f * v)
+        .collect();
+    // Ea_i (sign of eq 20: true − computed).
+    let mut ea = vec![0.0; nn];
+    for p in 0..n {
+        for (&i, &d) in w.nodes_of(p).iter().zip(w.d_of(p)) {
+            let i = i as usize;
+            let b = match reading {
+                Bound58Reading::Paper => bracket(p, i),
+                Bound58Reading::Consistent => delta[p],
+            };
+            ea[i] += d * volume[p] * b;
+        }
+    }
+    for ((e, &active), &m) in ea.iter_mut().zip(view.node_active).zip(view.node_mass) {
+        *e = if active { *e / m } else { 0.0 };
+    }
+    let mut dea = vec![0.0; n];
+    w.gather(WeightKind::D, &ea, &mut dea);
+    let num: Vec<f64> = (0..n)
+        .map(|p| delta[p] - dt * dt * view.tangent_modulus[p] * dea[p])
+        .collect();
+    let norm2 = |x: &[f64]| x.iter().map(|v| v * v).sum::<f64>().sqrt();
+    let norm_w = |x: &[f64]| {
+        x.iter()
+            .enumerate()
+            .map(|(p, v)| volume[p] * v * v / view.tangent_modulus[p])
+            .sum::<f64>()
+            .sqrt()
+    };
+    let dn = norm2(&delta);
+    if dn == 0.0 || !dn.is_finite() {
+        return Ok(None);
+    }
+    Ok(Some(Bound58 {
+        value: norm2(&num) / dn,
+        value_energy: norm_w(&num) / norm_w(&delta),
+        delta_sigma_norm: dn,
+    }))
+}

@@ -1,0 +1,130 @@
+//! Hand-built states (Views) for the stability tests: layouts of particles on a grid with
+//! nodal masses by eq 7, independent of any solver.
+#![allow(dead_code)]
+
+use mpm_dt::{Boundary, Grid, Shape, View, WeightKind, Weights};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+/// An owned state that lends a [`View`].
+pub struct Fixture {
+    pub grid: Grid,
+    pub shape: Shape,
+    pub x: Vec<f64>,
+    pub v: Vec<f64>,
+    pub sigma: Vec<f64>,
+    pub f: Vec<f64>,
+    pub volume0: Vec<f64>,
+    pub mass: Vec<f64>,
+    pub modulus: Vec<f64>,
+    pub density: Vec<f64>,
+    pub weights: Weights,
+    pub node_mass: Vec<f64>,
+    pub node_velocity: Vec<f64>,
+    pub node_acceleration: Vec<f64>,
+    pub node_active: Vec<bool>,
+}
+
+impl Fixture {
+    /// Particles at `x` on `grid` with density `rho`, modulus `e`, volumes `L/n` (GIMP width
+    /// = volume), σ = 0, v = 0, F = 1.
+    pub fn new(grid: Grid, shape: Shape, x: Vec<f64>, rho: f64, e: f64) -> Self {
+        let n = x.len();
+        let vol = grid.length() / n as f64;
+        let mut fx = Self {
+            grid,
+            shape,
+            v: vec![0.0; n],
+            sigma: vec![0.0; n],
+            f: vec![1.0; n],
+            volume0: vec![vol; n],
+            mass: vec![rho * vol; n],
+            modulus: vec![e; n],
+            density: vec![rho; n],
+            x,
+            weights: Weights::default(),
+            node_mass: Vec::new(),
+            node_velocity: Vec::new(),
+            node_acceleration: Vec::new(),
+            node_active: Vec::new(),
+        };
+        fx.refresh();
+        fx
+    }
+
+    /// Recomputes weights and nodal masses after changing `x`, `mass`, `volume0`.
+    pub fn refresh(&mut self) {
+        let widths = self.volume0.clone();
+        self.weights = Weights::compute(&self.grid, self.shape, &self.x, &widths);
+        let nn = self.grid.n_nodes();
+        self.node_mass = vec![0.0; nn];
+        self.weights
+            .scatter(WeightKind::S, &self.mass, &mut self.node_mass);
+        let mmax = self.node_mass.iter().cloned().fold(0.0, f64::max);
+        self.node_active = (0..nn)
+            .map(|i| !self.grid.is_constrained(i) && self.node_mass[i] > 1e-12 * mmax)
+            .collect();
+        self.node_velocity = vec![0.0; nn];
+        self.node_acceleration = vec![0.0; nn];
+    }
+
+    pub fn view(&self) -> View<'_> {
+        View {
+            t: 0.0,
+            step: 0,
+            grid: &self.grid,
+            x: &self.x,
+            v: &self.v,
+            sigma: &self.sigma,
+            f: &self.f,
+            volume0: &self.volume0,
+            mass: &self.mass,
+            tangent_modulus: &self.modulus,
+            density: &self.density,
+            weights: &self.weights,
+            node_mass: &self.node_mass,
+            node_velocity: &self.node_velocity,
+            node_acceleration: &self.node_acceleration,
+            node_active: &self.node_active,
+        }
+    }
+}
+
+/// `ppc` evenly spaced particles per cell (at the centres of `ppc` sub-cells).
+pub fn uniform(cells: usize, length: f64, ppc: usize) -> Vec<f64> {
+    let h = length / cells as f64;
+    (0..cells * ppc)
+        .map(|k| (k as f64 + 0.5) * h / ppc as f64)
+        .collect()
+}
+
+/// Uniform positions moved by up to `amp` of the sub-cell spacing, seeded.
+pub fn jittered(cells: usize, length: f64, ppc: usize, amp: f64, seed: u64) -> Vec<f64> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let d = length / (cells * ppc) as f64;
+    uniform(cells, length, ppc)
+        .into_iter()
+        .map(|x| x + amp * d * (rng.random::<f64>() - 0.5))
+        .collect()
+}
+
+/// Two particles per cell, with the four particles around node `k` pushed away from it so that
+/// its linear-hat mass is 1.5 % of a typical node's.
+pub fn small_mass(cells: usize, length: f64, k: usize) -> Vec<f64> {
+    let h = length / cells as f64;
+    let mut x = uniform(cells, length, 2);
+    let xk = k as f64 * h;
+    x[2 * (k - 1)] = xk - h + 0.005 * h;
+    x[2 * (k - 1) + 1] = xk - h + 0.01 * h;
+    x[2 * k] = xk + h - 0.01 * h;
+    x[2 * k + 1] = xk + h - 0.005 * h;
+    x
+}
+
+pub fn periodic(cells: usize, length: f64) -> Grid {
+    Grid::new(Boundary::Periodic, cells, length)
+}
+
+pub fn fixed(cells: usize, length: f64) -> Grid {
+    Grid::new(Boundary::Fixed, cells, length)
+}
