@@ -2,7 +2,8 @@
 //! (`try_step` + `accept`): standing wave, GIMP, 2 particles per cell, periodic, 10³ and 10⁴
 //! particles. The controller runs the stability limit (tracked λmax of eq 56, eq 58 check),
 //! the temporal error limit and the growth monitor; `controller_sound_speed_only` replaces the
-//! stability limit by the cheap sound-speed limit to isolate the controller's own cost.
+//! stability limit by the cheap sound-speed limit to isolate the controller's own cost, and
+//! `plain_with_views` adds to the plain step the construction of the views the limits read.
 //! Compare the entries of one size within one run.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
@@ -68,6 +69,21 @@ fn bench_controller(c: &mut Criterion) {
                 if let Err(e) = s.try_step(black_box(dt)) {
                     panic!("step failed: {e}");
                 }
+                let _ = s.accept();
+            })
+        });
+        // A plain step that also builds both views (weights S, D of the trial state): the
+        // part of the controller's cost that is the solver's observer data.
+        let mut s = stepper(particles);
+        group.bench_function(BenchmarkId::new("plain_with_views", particles), |b| {
+            b.iter(|| {
+                if let Err(e) = s.try_step(black_box(dt)) {
+                    panic!("step failed: {e}");
+                }
+                if let Some(v) = s.trial_view() {
+                    black_box(v.weights.n_particles());
+                }
+                black_box(s.view().weights.n_particles());
                 let _ = s.accept();
             })
         });
