@@ -10,7 +10,7 @@
 //! sound-speed cap (eq 49 with `|v|`, α = 1), the stability limit (tracked eq 56 step at
 //! safety 0.95, eq 58 check; the growth monitor lowers the safety when it sees growth), the
 //! temporal error limit (eqs 20–30) and the growth monitor; the scenario's `controller` field,
-//! if present, is the [`ControllerConfig`]. Logs go to stderr: human-readable by default, one JSON object per
+//! if present, is the [`mpm_dt::controller::ControllerConfig`]. Logs go to stderr: human-readable by default, one JSON object per
 //! event with `--log-json` (an INFO event per attempted step with its decision; `RUST_LOG`
 //! filters, default `info`; `RUST_LOG=debug` adds each limit's proposal and the full
 //! decision). `--json` prints one summary document on stdout (DESIGN.md keys plus
@@ -20,7 +20,7 @@
 //! With `--fixed-dt DT --steps K` it runs exactly K plain steps of DT without the controller
 //! and also prints the particle state.
 
-use mpm_dt::controller::{Controller, ControllerConfig, Decision, Outcome, Stats};
+use mpm_dt::controller::{Controller, Decision, Outcome, Stats};
 use mpm_dt::mpm::{Material, ReferenceStepper};
 use mpm_dt::scenario::Scenario;
 use mpm_dt::Stepper;
