@@ -1,0 +1,235 @@
+//! Controller configuration: the step-size rules, the filter, the temporal error tolerances
+//! and the growth monitor, with validation.
+//!
+//! The numbers follow SUNDIALS' adaptive-step defaults where the controller plays the same
+//! role (file `arkode_impl.h` of ARKODE and `cvode.c` of CVODE):
+//!
+//! | field | default | SUNDIALS |
+//! |---|---|---|
+//! | [`ControllerConfig::safety`] | 0.9 | ARKODE `SAFETY` = 0.9 |
+//! | [`ControllerConfig::max_growth`] | 10 | CVODE `ETAMX3` = 10 (ARKODE's `GROWTH` is 20) |
+//! | [`ControllerConfig::min_shrink`] | 0.1 | ARKODE/CVODE `ETAMIN` = 0.1 |
+//! | [`ControllerConfig::max_shrink_repeated`] | 0.3 | ARKODE `ETAMXF` = 0.3, applied from `SMALL_NEF` = 2 failures on |
+//! | [`ControllerConfig::max_consecutive_rejections`] | 7 | CVODE/ARKODE `MXNEF` = 7 |
+//!
+//! The whole struct is the `controller` field of a scenario file (JSON).
+
+use super::filter::FilterPreset;
+use super::growth::GrowthConfig;
+use super::temporal_error::TemporalErrorConfig;
+use serde::{Deserialize, Serialize};
+
+/// Everything the [`super::Controller`] can be told. `Default` gives the documented
+/// defaults; [`ControllerConfig::validate`] checks every field.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ControllerConfig {
+    /// First step to attempt \[time\]. `None` (default): the smallest of the limits'
+    /// proposals on the initial state; if no limit has an opinion the controller fails with
+    /// [`super::ControllerError::NoInitialStep`].
+    pub dt_initial: Option<f64>,
+    /// Smallest step the controller may take \[time\]; default 0 (no floor besides
+    /// positivity). A step that must go below it ends the run with
+    /// [`super::ControllerError::StepTooSmall`].
+    pub dt_min: f64,
+    /// Largest step \[time\]; `None` (default) for no cap.
+    pub dt_max: Option<f64>,
+    /// Safety factor applied to the filter's proposal and to the error-based shrink after a
+    /// rejection (dimensionless, default 0.9 as ARKODE).
+    pub safety: f64,
+    /// Largest ratio between consecutive accepted steps (default 10, CVODE's `ETAMX3`).
+    pub max_growth: f64,
+    /// Smallest factor by which a rejected step is shrunk for its retry (default 0.1,
+    /// `ETAMIN`). Limits' own proposals may still bind below it: dt never exceeds any limit.
+    pub min_shrink: f64,
+    /// Largest factor on a retry after the first rejection of a step (default 0.9): after
+    /// a rejection dt strictly shrinks.
+    pub max_shrink_first: f64,
+    /// Largest factor on a retry from the second consecutive rejection on (default 0.3,
+    /// ARKODE's `ETAMXF` with `SMALL_NEF` = 2).
+    pub max_shrink_repeated: f64,
+    /// Shrink factor for a rejection whose limit suggests no step and which is not an
+    /// error-test failure (non-finite state, stepper failure, growth, user veto); default 0.5.
+    pub reject_shrink: f64,
+    /// Consecutive rejections allowed for one step before the run ends with
+    /// [`super::ControllerError::TooManyRejections`] (default 7, SUNDIALS' `MXNEF`).
+    pub max_consecutive_rejections: u32,
+    /// The Söderlind filter mapping the `dsm` history to the next step (default PID).
+    pub filter: FilterPreset,
+    /// Global order `p` of the time integrator: the filter exponents are `k/(p+1)`. The USL
+    /// step (eqs 17–29) is symplectic Euler, first order (default 1, local error `O(dt²)`).
+    pub order: u32,
+    /// Tolerances of the [`super::TemporalError`] limit built by
+    /// [`super::Controller::with_default_limits`].
+    pub temporal: TemporalErrorConfig,
+    /// The growth monitor of the slow instability of moving particles.
+    pub growth: GrowthConfig,
+}
+
+impl Default for ControllerConfig {
+    fn default() -> Self {
+        Self {
+            dt_initial: None,
+            dt_min: 0.0,
+            dt_max: None,
+            safety: 0.9,
+            max_growth: 10.0,
+            min_shrink: 0.1,
+            max_shrink_first: 0.9,
+            max_shrink_repeated: 0.3,
+            reject_shrink: 0.5,
+            max_consecutive_rejections: 7,
+            filter: FilterPreset::Pid,
+            order: 1,
+            temporal: TemporalErrorConfig::default(),
+            growth: GrowthConfig::default(),
+        }
+    }
+}
+
+/// A configuration value out of its range. `field` is the JSON path of the field.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum ConfigError {
+    /// A number is outside its allowed range.
+    #[error("controller config: {field} = {value} is invalid: must be {expected}")]
+    OutOfRange {
+        /// Field path, e.g. `"safety"` or `"temporal.rtol"`.
+        field: &'static str,
+        /// The value given.
+        value: f64,
+        /// The allowed range in words.
+        expected: &'static str,
+    },
+    /// Two fields contradict each other.
+    #[error("controller config: {field} = {value} contradicts {other} = {other_value}")]
+    Inconsistent {
+        /// The field reported.
+        field: &'static str,
+        /// Its value.
+        value: f64,
+        /// The field it contradicts.
+        other: &'static str,
+        /// That field's value.
+        other_value: f64,
+    },
+    /// The JSON could not be parsed into a config.
+    #[error("controller config: {message}")]
+    Parse {
+        /// The serde message (names the unknown or mistyped field).
+        message: String,
+    },
+}
+
+pub(crate) fn check(
+    field: &'static str,
+    value: f64,
+    ok: bool,
+    expected: &'static str,
+) -> Result<(), ConfigError> {
+    if ok && !value.is_nan() {
+        Ok(())
+    } else {
+        Err(ConfigError::OutOfRange {
+            field,
+            value,
+            expected,
+        })
+    }
+}
+
+impl ControllerConfig {
+    /// Parses a config from JSON (unknown fields are errors) and validates it.
+    pub fn from_json(json: &str) -> Result<Self, ConfigError> {
+        let config: Self = serde_json::from_str(json).map_err(|e| ConfigError::Parse {
+            message: e.to_string(),
+        })?;
+        config.validate()?;
+        Ok(config)
+    }
+
+    /// Parses a config from a JSON value (the `controller` field of a scenario).
+    pub fn from_value(value: serde_json::Value) -> Result<Self, ConfigError> {
+        let config: Self = serde_json::from_value(value).map_err(|e| ConfigError::Parse {
+            message: e.to_string(),
+        })?;
+        config.validate()?;
+        Ok(config)
+    }
+
+    /// Checks every field; the error names the first offending one.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        if let Some(dt) = self.dt_initial {
+            check(
+                "dt_initial",
+                dt,
+                dt.is_finite() && dt > 0.0,
+                "finite and > 0",
+            )?;
+        }
+        check(
+            "dt_min",
+            self.dt_min,
+            self.dt_min.is_finite() && self.dt_min >= 0.0,
+            "finite and >= 0",
+        )?;
+        if let Some(dt) = self.dt_max {
+            check("dt_max", dt, dt > 0.0, "> 0")?;
+            if dt < self.dt_min {
+                return Err(ConfigError::Inconsistent {
+                    field: "dt_max",
+                    value: dt,
+                    other: "dt_min",
+                    other_value: self.dt_min,
+                });
+            }
+        }
+        check(
+            "safety",
+            self.safety,
+            self.safety > 0.0 && self.safety <= 1.0,
+            "in (0, 1]",
+        )?;
+        check(
+            "max_growth",
+            self.max_growth,
+            self.max_growth.is_finite() && self.max_growth >= 1.0,
+            "finite and >= 1",
+        )?;
+        check(
+            "min_shrink",
+            self.min_shrink,
+            self.min_shrink > 0.0 && self.min_shrink < 1.0,
+            "in (0, 1)",
+        )?;
+        check(
+            "max_shrink_first",
+            self.max_shrink_first,
+            self.max_shrink_first >= self.min_shrink && self.max_shrink_first < 1.0,
+            "in [min_shrink, 1)",
+        )?;
+        check(
+            "max_shrink_repeated",
+            self.max_shrink_repeated,
+            self.max_shrink_repeated >= self.min_shrink && self.max_shrink_repeated < 1.0,
+            "in [min_shrink, 1)",
+        )?;
+        check(
+            "reject_shrink",
+            self.reject_shrink,
+            self.reject_shrink > 0.0 && self.reject_shrink < 1.0,
+            "in (0, 1)",
+        )?;
+        check(
+            "max_consecutive_rejections",
+            f64::from(self.max_consecutive_rejections),
+            self.max_consecutive_rejections >= 1,
+            ">= 1",
+        )?;
+        check("order", f64::from(self.order), self.order >= 1, ">= 1")?;
+        self.filter.validate()?;
+        self.temporal.validate()?;
+        self.growth.validate()?;
+        Ok(())
+    }
+}

@@ -1,0 +1,413 @@
+//! The temporal local error of the USL step (eqs 20–30) as a limit.
+//!
+//! Eqs 20, 23 and 28 split each local error into a spatial part and the forward-Euler
+//! temporal part
+//!
+//! ```text
+//! le_v,p ≈ dt²/2 · d²v_p/dt²        (eqs 20, 23)
+//! le_σ,p ≈ dt²/2 · d²σ_p/dt²        (eq 28)
+//! ```
+//!
+//! This limit estimates the second time derivatives from successive rates of the committed
+//! and trial particle fields:
+//!
+//! * from the second step on, from the previous accepted step (`n−1 → n`, size `dt₋`) and
+//!   the trial (`n → n+1`, size `dt`):
+//!   `d²u/dt² ≈ 2 (r_n − r_{n−1}) / (dt + dt₋)` with `r_n = (u^{n+1} − u^n)/dt` for
+//!   `u = v_p` (the particle acceleration of eq 22) and `u = σ_p` (the stress rate of
+//!   eq 27);
+//! * on the first step (no history) from the rates at both ends of the trial, read from the
+//!   views' nodal fields: `a_p = Σ_i S_ip a_i` (eq 21) and `σ̇_p = E_t,p Σ_i D_ip v_i`
+//!   (eqs 16, 24), giving `d²u/dt² ≈ (r(t^{n+1}) − r(t^n))/dt`.
+//!
+//! The errors are scaled SUNDIALS-style into one number
+//!
+//! ```text
+//! dsm = sqrt( 1/(2N) Σ_p [ (le_v,p / w_v,p)² + (le_σ,p / w_σ,p)² ] )     (weighted RMS norm)
+//! w_u,p = atol_u + atol_rel · ‖u‖_∞ + rtol · max(|u_p^n|, |u_p^{n+1}|)
+//! ```
+//!
+//! where `‖u‖_∞` is the field's scale: the largest magnitude over the particles in the
+//! committed, trial and previous states, in *energy-equivalent* units — a vibrating body
+//! swaps its energy between `v` and `σ`, so the velocity scale is at least
+//! `max_p |σ_p|/(ρc)_p` and the stress scale at least `max_p (ρc)_p |v_p|`, with the
+//! acoustic impedance `ρc = √(E_t ρ)`. Without this, a field that starts at zero (the stress
+//! of a released standing wave) would be judged relative to its own `O(dt)` size. The
+//! weight is never zero at a zero crossing of one particle. `dsm ≤ 1` accepts; the
+//! controller's filter turns `dsm` into the next step.
+//!
+//! Interpretations, documented here because the paper leaves them open:
+//! * Eq 26 (`F`) is not measured separately: for the elastic laws `σ` is a function of
+//!   `F`, so its error is already in `le_σ`.
+//! * Eq 30's `dt²/2 · d²x/dt²` term is not included: positions are weighted by the domain
+//!   size, which makes this term irrelevant at any useful tolerance, and in a periodic
+//!   domain `|x|` depends on where the origin is.
+//! * The symplectic USL step does not accumulate its local errors like a dissipative method:
+//!   the phase error of a mode `ω` grows like `(ω dt)²/24` per radian while the local error
+//!   estimate is `(ω dt)²/2` relative. The default tolerances are therefore loose; a
+//!   temporal error far below the spatial one buys nothing (Steffen, Kirby & Berzins 2010).
+
+use super::config::{check, ConfigError};
+use super::decision::metric;
+use crate::limit::{Judgement, LimitError, Metrics, Proposal, RejectCause, StepLimit, Verdict};
+use crate::stepper::View;
+use crate::weights::WeightKind;
+use serde::{Deserialize, Serialize};
+
+/// Tolerances of [`TemporalError`]. Units: `atol_v` is a velocity, `atol_sigma` a stress;
+/// `rtol` and `atol_rel` are dimensionless.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct TemporalErrorConfig {
+    /// Whether [`super::Controller::with_default_limits`] installs the limit (default true).
+    pub enabled: bool,
+    /// Relative tolerance on each particle's value (default 0.05).
+    pub rtol: f64,
+    /// Tolerance relative to the field's largest magnitude `‖u‖_∞` (default 0.05).
+    pub atol_rel: f64,
+    /// Absolute velocity tolerance \[velocity\] (default 0).
+    pub atol_v: f64,
+    /// Absolute stress tolerance \[stress\] (default 0).
+    pub atol_sigma: f64,
+    /// Balancing factor κ (default `None`: off). When set, each particle's weights grow by
+    /// κ × the spatial local error of the same step from Section 4: `dt |Σ_i S_ip Ea_i|`
+    /// for the velocity (the spatial part of eqs 20/23, `Ea_i` by eq 33) and `|leσ_p|` of
+    /// eq 44 for the stress. The temporal error is then only required to stay below κ times
+    /// the spatial one where that is larger than the plain tolerance (Steffen, Kirby &
+    /// Berzins 2010: a temporal error far below the spatial one buys nothing).
+    pub balance: Option<f64>,
+}
+
+impl Default for TemporalErrorConfig {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            rtol: 0.05,
+            atol_rel: 0.05,
+            atol_v: 0.0,
+            atol_sigma: 0.0,
+            balance: None,
+        }
+    }
+}
+
+impl TemporalErrorConfig {
+    /// Checks the tolerances: all finite and non-negative, and not all zero.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        for (field, v) in [
+            ("temporal.rtol", self.rtol),
+            ("temporal.atol_rel", self.atol_rel),
+            ("temporal.atol_v", self.atol_v),
+            ("temporal.atol_sigma", self.atol_sigma),
+        ] {
+            check(field, v, v.is_finite() && v >= 0.0, "finite and >= 0")?;
+        }
+        if let Some(k) = self.balance {
+            check(
+                "temporal.balance",
+                k,
+                k.is_finite() && k > 0.0,
+                "finite and > 0",
+            )?;
+        }
+        check(
+            "temporal.rtol",
+            self.rtol,
+            self.rtol + self.atol_rel > 0.0,
+            "> 0 when atol_rel = 0",
+        )
+    }
+}
+
+/// Rates of the last accepted step, kept for the next estimate.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+struct History {
+    dt: f64,
+    accel: Vec<f64>,
+    stress_rate: Vec<f64>,
+    v_scale: f64,
+    sigma_scale: f64,
+}
+
+/// The temporal error limit: proposes nothing itself (the controller's filter does, from
+/// the `dsm` this limit reports), judges each trial by `dsm ≤ 1`.
+#[derive(Clone, Debug)]
+pub struct TemporalError {
+    config: TemporalErrorConfig,
+    history: Option<History>,
+    /// The rates of the last judged trial `(t, dt, rates)`, reused by `accepted`.
+    judged: Option<(f64, f64, History)>,
+}
+
+/// The name of the limit in logs and statistics.
+pub const TEMPORAL_ERROR: &str = "temporal_error";
+
+fn inf_norm(u: &[f64]) -> f64 {
+    u.iter().fold(0.0_f64, |m, x| m.max(x.abs()))
+}
+
+impl TemporalError {
+    /// A limit with the given tolerances (validated).
+    pub fn new(config: TemporalErrorConfig) -> Result<Self, ConfigError> {
+        config.validate()?;
+        Ok(Self {
+            config,
+            history: None,
+            judged: None,
+        })
+    }
+
+    fn other(message: String) -> LimitError {
+        LimitError::Other {
+            limit: TEMPORAL_ERROR.to_string(),
+            message,
+        }
+    }
+
+    fn check_views(before: &View<'_>, after: &View<'_>) -> Result<(), LimitError> {
+        let n = before.n_particles();
+        if after.n_particles() != n
+            || before.v.len() != n
+            || after.v.len() != n
+            || before.sigma.len() != n
+            || after.sigma.len() != n
+        {
+            return Err(Self::other(format!(
+                "particle counts differ between committed ({n}) and trial ({}) states",
+                after.n_particles()
+            )));
+        }
+        Ok(())
+    }
+
+    /// Start-of-state rates from the nodal fields: `a_p = Σ S_ip a_i` (eq 21) and
+    /// `σ̇_p = E_t,p Σ D_ip v_i` (eqs 16, 24).
+    fn nodal_rates(view: &View<'_>) -> Result<(Vec<f64>, Vec<f64>), LimitError> {
+        let n = view.n_particles();
+        let nodes = view.weights.n_nodes();
+        if view.weights.n_particles() != n
+            || view.node_acceleration.len() != nodes
+            || view.node_velocity.len() != nodes
+            || view.tangent_modulus.len() != n
+        {
+            return Err(Self::other(
+                "view's weights, nodal fields and particle fields have inconsistent sizes"
+                    .to_string(),
+            ));
+        }
+        let mut accel = vec![0.0; n];
+        view.weights
+            .gather(WeightKind::S, view.node_acceleration, &mut accel);
+        let mut grad = vec![0.0; n];
+        view.weights
+            .gather(WeightKind::D, view.node_velocity, &mut grad);
+        let rate = grad
+            .iter()
+            .zip(view.tangent_modulus)
+            .map(|(l, e)| e * l)
+            .collect();
+        Ok((accel, rate))
+    }
+
+    /// Spatial local errors of a step of size `dt` from `view`, per particle:
+    /// `dt |Σ_i S_ip Ea_i|` (eqs 20, 23 with eq 33) and `|leσ_p|` (eq 44).
+    fn spatial(view: &View<'_>, dt: f64) -> Result<(Vec<f64>, Vec<f64>), LimitError> {
+        use crate::estimators::{
+            local_stress::local_stress_error, stress_divergence_error, Recovery,
+        };
+        let err = |e: crate::estimators::EstimatorError| Self::other(format!("balance: {e}"));
+        let ea = stress_divergence_error(view).map_err(err)?;
+        let mut ea_p = vec![0.0; view.n_particles()];
+        if ea.len() != view.weights.n_nodes() || view.weights.n_particles() != ea_p.len() {
+            return Err(Self::other("balance: inconsistent view sizes".to_string()));
+        }
+        view.weights.gather(WeightKind::S, &ea, &mut ea_p);
+        let sv = ea_p.iter().map(|e| dt * e.abs()).collect();
+        let ss = local_stress_error(view, dt, Recovery::default())
+            .map_err(err)?
+            .into_iter()
+            .map(f64::abs)
+            .collect();
+        Ok((sv, ss))
+    }
+
+    /// Computes `(dsm, dsm_v, dsm_sigma)` of a trial and the rates to remember.
+    fn estimate(
+        &self,
+        before: &View<'_>,
+        after: &View<'_>,
+        dt: f64,
+    ) -> Result<(f64, f64, f64, History), LimitError> {
+        Self::check_views(before, after)?;
+        let n = before.n_particles();
+        let accel: Vec<f64> = (0..n).map(|p| (after.v[p] - before.v[p]) / dt).collect();
+        let stress_rate: Vec<f64> = (0..n)
+            .map(|p| (after.sigma[p] - before.sigma[p]) / dt)
+            .collect();
+        // Second time derivatives d²v/dt², d²σ/dt².
+        let (dv2, ds2): (Vec<f64>, Vec<f64>) = match &self.history {
+            Some(h) if h.accel.len() == n => {
+                let span = 0.5 * (dt + h.dt);
+                (
+                    (0..n).map(|p| (accel[p] - h.accel[p]) / span).collect(),
+                    (0..n)
+                        .map(|p| (stress_rate[p] - h.stress_rate[p]) / span)
+                        .collect(),
+                )
+            }
+            _ => {
+                let (a0, s0) = Self::nodal_rates(before)?;
+                let (a1, s1) = Self::nodal_rates(after)?;
+                (
+                    (0..n).map(|p| (a1[p] - a0[p]) / dt).collect(),
+                    (0..n).map(|p| (s1[p] - s0[p]) / dt).collect(),
+                )
+            }
+        };
+        let (prev_v, prev_s) = self
+            .history
+            .as_ref()
+            .map_or((0.0, 0.0), |h| (h.v_scale, h.sigma_scale));
+        // Energy-equivalent scales: |σ| ↔ ρc|v| (acoustic impedance ρc = √(E_t ρ)).
+        let mut v_scale = inf_norm(before.v).max(inf_norm(after.v));
+        let mut sigma_scale = inf_norm(before.sigma).max(inf_norm(after.sigma));
+        let (mut v_from_s, mut s_from_v) = (0.0_f64, 0.0_f64);
+        for (p, (&e, &rho)) in before
+            .tangent_modulus
+            .iter()
+            .zip(before.density)
+            .enumerate()
+            .take(n)
+        {
+            let z = (e * rho).sqrt();
+            if z.is_finite() && z > 0.0 {
+                let v = before.v[p].abs().max(after.v[p].abs());
+                let sg = before.sigma[p].abs().max(after.sigma[p].abs());
+                v_from_s = v_from_s.max(sg / z);
+                s_from_v = s_from_v.max(v * z);
+            }
+        }
+        v_scale = v_scale.max(v_from_s);
+        sigma_scale = sigma_scale.max(s_from_v);
+        let c = &self.config;
+        let (spatial_v, spatial_s) = match c.balance {
+            Some(kappa) => {
+                let (sv, ss) = Self::spatial(before, dt)?;
+                (
+                    sv.into_iter().map(|e| kappa * e).collect(),
+                    ss.into_iter().map(|e| kappa * e).collect(),
+                )
+            }
+            None => (vec![0.0; n], vec![0.0; n]),
+        };
+        let half_dt2 = 0.5 * dt * dt;
+        let term = |le: f64, w: f64| -> f64 {
+            if le == 0.0 {
+                0.0
+            } else {
+                let r = le / w.max(f64::MIN_POSITIVE);
+                r * r
+            }
+        };
+        let (mut sum_v, mut sum_s) = (0.0, 0.0);
+        for p in 0..n {
+            let wv = c.atol_v
+                + spatial_v[p]
+                + c.atol_rel * v_scale.max(prev_v)
+                + c.rtol * before.v[p].abs().max(after.v[p].abs());
+            let ws = c.atol_sigma
+                + spatial_s[p]
+                + c.atol_rel * sigma_scale.max(prev_s)
+                + c.rtol * before.sigma[p].abs().max(after.sigma[p].abs());
+            sum_v += term(half_dt2 * dv2[p], wv);
+            sum_s += term(half_dt2 * ds2[p], ws);
+        }
+        let nf = n.max(1) as f64;
+        let dsm = ((sum_v + sum_s) / (2.0 * nf)).sqrt();
+        let dsm_v = (sum_v / nf).sqrt();
+        let dsm_s = (sum_s / nf).sqrt();
+        Ok((
+            dsm,
+            dsm_v,
+            dsm_s,
+            History {
+                dt,
+                accel,
+                stress_rate,
+                v_scale,
+                sigma_scale,
+            },
+        ))
+    }
+}
+
+impl StepLimit for TemporalError {
+    fn name(&self) -> &str {
+        TEMPORAL_ERROR
+    }
+
+    /// No opinion (`∞`): the controller's filter proposes the accuracy-limited step.
+    fn propose(&mut self, _state: &View<'_>) -> Result<Proposal, LimitError> {
+        Ok(Proposal {
+            dt: f64::INFINITY,
+            metrics: Metrics::new(),
+        })
+    }
+
+    fn judge(
+        &mut self,
+        before: &View<'_>,
+        after: &View<'_>,
+        dt: f64,
+    ) -> Result<Judgement, LimitError> {
+        let (dsm, dsm_v, dsm_s, rates) = self.estimate(before, after, dt)?;
+        self.judged = Some((before.t, dt, rates));
+        let mut metrics = Metrics::new();
+        metrics.insert(metric::DSM.to_string(), dsm);
+        metrics.insert("dsm_v".to_string(), dsm_v);
+        metrics.insert("dsm_sigma".to_string(), dsm_s);
+        let verdict = if dsm <= 1.0 {
+            Verdict::Accept
+        } else if dsm.is_nan() {
+            Verdict::Reject {
+                cause: RejectCause::NonFinite,
+                suggested_dt: None,
+            }
+        } else {
+            Verdict::Reject {
+                cause: RejectCause::Error,
+                suggested_dt: None,
+            }
+        };
+        Ok(Judgement { verdict, metrics })
+    }
+
+    fn accepted(&mut self, before: &View<'_>, after: &View<'_>, dt: f64) {
+        // Reuse the rates of the judged trial when it is this one (same start time and
+        // step); otherwise recompute them.
+        match self.judged.take() {
+            Some((t, d, h)) if t.to_bits() == before.t.to_bits() && d.to_bits() == dt.to_bits() => {
+                self.history = Some(h);
+            }
+            _ => {
+                if let Ok((_, _, _, h)) = self.estimate(before, after, dt) {
+                    self.history = Some(h);
+                }
+            }
+        }
+    }
+
+    fn rejected(&mut self, _dt: f64, _cause: RejectCause) {
+        self.judged = None;
+    }
+
+    fn save_state(&self) -> Option<serde_json::Value> {
+        serde_json::to_value(&self.history).ok()
+    }
+
+    fn restore_state(&mut self, state: &serde_json::Value) -> Result<(), LimitError> {
+        self.history = serde_json::from_value(state.clone())
+            .map_err(|e| Self::other(format!("cannot restore state: {e}")))?;
+        Ok(())
+    }
+}

@@ -1,0 +1,109 @@
+//! Checkpoint/restart: a run restarted from a JSON checkpoint continues bit-identically.
+
+mod common;
+
+use common::{Fields, MockStepper, SoundSpeedMock};
+use mpm_dt::controller::{Checkpoint, Controller, ControllerConfig, GrowthMonitor, TemporalError};
+use mpm_dt::limit::StepLimit;
+use mpm_dt::Shape;
+
+fn limits(config: &ControllerConfig) -> Vec<Box<dyn StepLimit>> {
+    vec![
+        Box::new(SoundSpeedMock {
+            alpha: 0.6,
+            safety_scale: 1.0,
+        }),
+        Box::new(TemporalError::new(config.temporal.clone()).unwrap()),
+        Box::new(GrowthMonitor::new(config.growth.clone()).unwrap()),
+    ]
+}
+
+#[test]
+fn restarted_run_is_bit_identical() {
+    let mut config = ControllerConfig::default();
+    // Tight tolerance so the filter (with history) sets dt and rejections happen.
+    config.temporal.rtol = 1e-4;
+    config.temporal.atol_rel = 1e-4;
+    let mut s = MockStepper::standing_wave(16, 2, 1.0, 1e-2, Shape::Gimp, 0.3, 9);
+    let mut c = Controller::new(config.clone(), limits(&config)).unwrap();
+    c.run_until(&mut s, 0.1, &mut |_| {}).unwrap();
+    assert!(c.state().filter.has_history());
+
+    let json = serde_json::to_string(&Checkpoint {
+        controller: c.checkpoint(),
+        stepper: s.committed.fields.clone(),
+    })
+    .unwrap();
+
+    let mut straight = Vec::new();
+    c.run_until(&mut s, 0.3, &mut |d| straight.push(d.to_json_line()))
+        .unwrap();
+
+    let cp: Checkpoint<Fields> = serde_json::from_str(&json).unwrap();
+    let mut s2 = MockStepper::from_fields(s.grid.clone(), Shape::Gimp, 1.0, cp.stepper, 9);
+    let mut c2 = Controller::restore(cp.controller, limits(&config)).unwrap();
+    let mut restarted = Vec::new();
+    c2.run_until(&mut s2, 0.3, &mut |d| restarted.push(d.to_json_line()))
+        .unwrap();
+
+    assert!(!straight.is_empty());
+    assert_eq!(straight, restarted);
+    let (a, b) = (&s.committed.fields, &s2.committed.fields);
+    let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    assert_eq!(bits(&a.x), bits(&b.x));
+    assert_eq!(bits(&a.v), bits(&b.v));
+    assert_eq!(bits(&a.sigma), bits(&b.sigma));
+    assert_eq!(a.t.to_bits(), b.t.to_bits());
+    assert_eq!(c.stats(), c2.stats());
+}
+
+#[test]
+fn restore_rejects_mismatched_limits() {
+    let config = ControllerConfig::default();
+    let c = Controller::new(config.clone(), limits(&config)).unwrap();
+    let cp = c.checkpoint();
+    assert!(Controller::restore(cp.clone(), vec![]).is_err());
+    let mut wrong = limits(&config);
+    wrong.swap(1, 2);
+    assert!(Controller::restore(cp, wrong).is_err());
+}
+
+#[test]
+fn reference_stepper_restart_is_bit_identical() {
+    use mpm_dt::mpm::{ReferenceStepper, SolverCheckpoint};
+    use mpm_dt::scenario::Scenario;
+    use mpm_dt::Stepper;
+    let scenario = Scenario::from_json(
+        r#"{"cells": 16, "particles": {"per_cell": 2},
+            "initial": {"standing_wave": {"amplitude": 1e-2, "mode": 1}}}"#,
+    )
+    .unwrap();
+    let config = ControllerConfig::default();
+    let mut s = scenario.build().unwrap();
+    let mut c = Controller::new(config.clone(), limits(&config)).unwrap();
+    c.run_until(&mut s, 0.2, &mut |_| {}).unwrap();
+    let json = serde_json::to_string(&Checkpoint {
+        controller: c.checkpoint(),
+        stepper: s.checkpoint(),
+    })
+    .unwrap();
+    let mut straight = Vec::new();
+    c.run_until(&mut s, 0.5, &mut |d| straight.push(d.to_json_line()))
+        .unwrap();
+
+    let cp: Checkpoint<SolverCheckpoint> = serde_json::from_str(&json).unwrap();
+    let mut s2 = ReferenceStepper::from_checkpoint(cp.stepper).unwrap();
+    let mut c2 = Controller::restore(cp.controller, limits(&config)).unwrap();
+    let mut restarted = Vec::new();
+    c2.run_until(&mut s2, 0.5, &mut |d| restarted.push(d.to_json_line()))
+        .unwrap();
+    assert!(!straight.is_empty());
+    assert_eq!(straight, restarted);
+    let (a, b) = (s.view(), s2.view());
+    let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    assert_eq!(bits(a.x), bits(b.x));
+    assert_eq!(bits(a.v), bits(b.v));
+    assert_eq!(bits(a.sigma), bits(b.sigma));
+    assert_eq!(bits(a.node_acceleration), bits(b.node_acceleration));
+    assert_eq!(a.t.to_bits(), b.t.to_bits());
+}

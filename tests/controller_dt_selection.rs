@@ -1,0 +1,189 @@
+//! Property tests of the controller's step selection (proptest; regressions are committed
+//! under `proptest-regressions/`).
+
+mod common;
+
+use common::{all_finite, MockStepper, RandomError, ScriptedLimit};
+use mpm_dt::controller::{
+    bound, Controller, ControllerConfig, ControllerError, Decision, FilterPreset, Outcome,
+};
+use mpm_dt::limit::StepLimit;
+use mpm_dt::{Shape, Stepper};
+use proptest::prelude::*;
+use proptest::test_runner::FileFailurePersistence;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+
+#[derive(Clone, Debug)]
+struct Case {
+    proposals: Vec<f64>,
+    dt_max: Option<f64>,
+    error_max: f64,
+    nan_probability: f64,
+    t_end: f64,
+    filter: FilterPreset,
+    seed: u64,
+}
+
+fn case() -> impl Strategy<Value = Case> {
+    (
+        prop::collection::vec(1e-4f64..0.05, 1..5),
+        prop::option::of(1e-3f64..0.05),
+        0.2f64..2.5,
+        0.0f64..0.3,
+        0.02f64..0.3,
+        prop::sample::select(vec![
+            FilterPreset::I,
+            FilterPreset::Pi,
+            FilterPreset::Pid,
+            FilterPreset::H211,
+            FilterPreset::H0211,
+            FilterPreset::H0321,
+            FilterPreset::H312,
+        ]),
+        any::<u64>(),
+    )
+        .prop_map(
+            |(proposals, dt_max, error_max, nan_probability, t_end, filter, seed)| Case {
+                proposals,
+                dt_max,
+                error_max,
+                nan_probability,
+                t_end,
+                filter,
+                seed,
+            },
+        )
+}
+
+struct Run {
+    decisions: Vec<Decision>,
+    end: Result<(), String>,
+    times_ok: bool,
+    finite_ok: bool,
+    config: ControllerConfig,
+    rejections_at_end: Option<(u32, u32)>,
+}
+
+fn run(c: &Case) -> Run {
+    let mut stepper = MockStepper::standing_wave(8, 2, 1.0, 1e-2, Shape::Gimp, 0.3, c.seed);
+    stepper.faults.nan_probability = c.nan_probability;
+    let config = ControllerConfig {
+        dt_max: c.dt_max,
+        filter: c.filter,
+        ..ControllerConfig::default()
+    };
+    let limits: Vec<Box<dyn StepLimit>> = vec![
+        Box::new(ScriptedLimit {
+            name: "scripted".into(),
+            proposals: c.proposals.clone(),
+            k: 0,
+        }),
+        Box::new(RandomError {
+            rng: ChaCha8Rng::seed_from_u64(c.seed),
+            max: c.error_max,
+        }),
+    ];
+    let mut controller = Controller::new(config.clone(), limits).expect("valid config");
+    let mut decisions = Vec::new();
+    let (mut times_ok, mut finite_ok) = (true, true);
+    let mut end = Ok(());
+    let mut rejections_at_end = None;
+    while stepper.time() < c.t_end && (c.t_end - stepper.time()) > 1e-15 {
+        match controller.step(&mut stepper, c.t_end) {
+            Ok(ds) => decisions.extend(ds),
+            Err(e) => {
+                if let ControllerError::TooManyRejections { count, last, .. } = &e {
+                    rejections_at_end = Some((*count, last.attempt));
+                }
+                end = Err(e.to_string());
+                break;
+            }
+        }
+        times_ok &= stepper.time() <= c.t_end;
+        finite_ok &= all_finite(&stepper);
+    }
+    Run {
+        decisions,
+        end,
+        times_ok,
+        finite_ok,
+        config,
+        rejections_at_end,
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig {
+        cases: 48,
+        failure_persistence: Some(Box::new(FileFailurePersistence::Direct(
+            "proptest-regressions/controller_dt_selection.txt",
+        ))),
+        ..ProptestConfig::default()
+    })]
+
+    #[test]
+    fn dt_selection_rules_hold(c in case()) {
+        let r = run(&c);
+        prop_assert!(!r.decisions.is_empty() || r.rejections_at_end.is_some(), "nothing happened");
+        prop_assert!(r.times_ok, "t passed t_end");
+        prop_assert!(r.finite_ok, "a non-finite state was accepted");
+        let cfg = &r.config;
+        let mut last_accepted: Option<&Decision> = None;
+        let mut prev: Option<&Decision> = None;
+        for d in &r.decisions {
+            // Never above any limit's proposal, dt_max, or t_end.
+            for l in &d.limits {
+                if let Some(p) = l.proposal {
+                    prop_assert!(d.dt <= p, "dt {} > {} proposal {}", d.dt, l.name, p);
+                }
+            }
+            if let Some(m) = cfg.dt_max {
+                prop_assert!(d.dt <= m);
+            }
+            prop_assert!(d.t + d.dt <= c.t_end);
+            prop_assert!(d.dt > 0.0 && d.dt.is_finite());
+            if let Some(p) = prev {
+                if p.step == d.step {
+                    // A retry: strictly smaller, shrink within bounds.
+                    prop_assert_eq!(p.outcome, Outcome::Rejected);
+                    prop_assert_eq!(d.attempt, p.attempt + 1);
+                    let ratio = d.dt / p.dt;
+                    let hi = if d.attempt >= 3 { cfg.max_shrink_repeated } else { cfg.max_shrink_first };
+                    prop_assert!(d.dt < p.dt, "retry did not shrink");
+                    prop_assert!(ratio <= hi * (1.0 + 1e-12), "retry ratio {} > {}\n{}\n{}", ratio, hi, p.to_json_line(), d.to_json_line());
+                    if d.binding == bound::RETRY {
+                        prop_assert!(ratio >= cfg.min_shrink * (1.0 - 1e-12), "retry ratio {} < min_shrink", ratio);
+                    }
+                } else {
+                    prop_assert_eq!(d.attempt, 1);
+                }
+            }
+            if d.attempt == 1 {
+                if let Some(a) = last_accepted {
+                    let g = if a.attempt > 1 { 1.0 } else { cfg.max_growth };
+                    prop_assert!(d.dt <= g * a.dt * (1.0 + 1e-12), "growth {} after attempt {}", d.dt / a.dt, a.attempt);
+                }
+            }
+            if d.outcome == Outcome::Accepted {
+                last_accepted = Some(d);
+            }
+            prev = Some(d);
+        }
+        // An unfinished run ends with a typed error, within the rejection limit.
+        if let Some((count, attempt)) = r.rejections_at_end {
+            prop_assert_eq!(count, cfg.max_consecutive_rejections);
+            prop_assert_eq!(attempt, cfg.max_consecutive_rejections);
+        }
+    }
+
+    #[test]
+    fn same_inputs_same_decisions(c in case()) {
+        let a = run(&c);
+        let b = run(&c);
+        let la: Vec<String> = a.decisions.iter().map(Decision::to_json_line).collect();
+        let lb: Vec<String> = b.decisions.iter().map(Decision::to_json_line).collect();
+        prop_assert_eq!(la, lb);
+        prop_assert_eq!(a.end, b.end);
+    }
+}
