@@ -1,0 +1,192 @@
+//! The controller's overhead: one accepted step with every limit on versus the bare
+//! reference step, on the same stepper in the same run.
+//!
+//! ```text
+//! cargo bench --bench controller -- --warm-up-time 1 --measurement-time 3
+//! ```
+//!
+//! Set-up: standing wave (amplitude 0.01 c), GIMP, 2 particles per cell, periodic, at
+//! 10³ … 10⁶ particles. The limit set is the one `examples/compare.rs` recommends:
+//! `Stability` (eq 56, safety 0.9), `SoundSpeed` with `α = 1` as a cap, and from
+//! `Controller::with_default_limits` the temporal error limit and the growth monitor.
+//!
+//! Groups:
+//! - `controller_step/{bare,controlled}/N`: `try_step + accept` at the controller's last
+//!   step versus `Controller::step` (every limit's `propose`, the trial, every limit's
+//!   `judge`, the accept and the limits' `accepted` hooks). Throughput is in particles. The
+//!   overhead ratio is `controlled / bare`.
+//! - `limit_propose/NAME` and `limit_judge/NAME` at 10⁵ particles: each limit's share of
+//!   the overhead (propose on the committed state, judge of one trial against it).
+//!
+//! The λmax tracker's own cost (operator build, one application, warm update) is in
+//! `benches/stability.rs`; the estimators' in `benches/estimators.rs`.
+#![allow(missing_docs)]
+
+use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use mpm_dt::controller::{
+    Controller, ControllerConfig, GrowthConfig, GrowthMonitor, TemporalError, TemporalErrorConfig,
+};
+use mpm_dt::mpm::{Material, ReferenceStepper};
+use mpm_dt::problems::StandingWave;
+use mpm_dt::stability::{SoundSpeed, SoundSpeedConfig, Stability, StabilityConfig};
+use mpm_dt::{Boundary, Grid, Shape, StepLimit, Stepper};
+use std::hint::black_box;
+use std::time::Duration;
+
+fn stepper(particles: usize) -> ReferenceStepper {
+    let ppc = 2;
+    let grid = Grid::new(Boundary::Periodic, particles / ppc, 1.0);
+    let wave = StandingWave::new(1e-2, 1.0, 1.0, 1.0, 1.0);
+    let init = wave.uniform_particles(&grid, ppc);
+    let material = Material::LinearElastic {
+        youngs_modulus: 1.0,
+    };
+    match ReferenceStepper::new(grid, Shape::Gimp, material, init) {
+        Ok(s) => s,
+        Err(e) => panic!("bench set-up failed: {e}"),
+    }
+}
+
+fn stability() -> Stability {
+    match Stability::new(StabilityConfig::default()) {
+        Ok(l) => l,
+        Err(e) => panic!("bench set-up failed: {e}"),
+    }
+}
+
+fn sound_speed_cap() -> SoundSpeed {
+    match SoundSpeed::new(SoundSpeedConfig { alpha: 1.0 }) {
+        Ok(l) => l,
+        Err(e) => panic!("bench set-up failed: {e}"),
+    }
+}
+
+fn controller() -> Controller {
+    let limits: Vec<Box<dyn StepLimit>> = vec![Box::new(stability()), Box::new(sound_speed_cap())];
+    match Controller::with_default_limits(ControllerConfig::default(), limits) {
+        Ok(c) => c,
+        Err(e) => panic!("bench set-up failed: {e}"),
+    }
+}
+
+fn bench_overhead(c: &mut Criterion) {
+    let mut group = c.benchmark_group("controller_step");
+    for particles in [1_000usize, 10_000, 100_000, 1_000_000] {
+        if particles >= 100_000 {
+            group.sample_size(10);
+        }
+        let mut s = stepper(particles);
+        let mut ctl = controller();
+        // Warm up the controller (filter history, λmax tracker) on a few real steps.
+        for _ in 0..5 {
+            if let Err(e) = ctl.step(&mut s, f64::INFINITY) {
+                panic!("controller failed: {e}");
+            }
+        }
+        group.throughput(Throughput::Elements(particles as u64));
+        group.bench_function(BenchmarkId::new("controlled", particles), |b| {
+            b.iter(|| match ctl.step(&mut s, f64::INFINITY) {
+                Ok(d) => black_box(d),
+                Err(e) => panic!("controller failed: {e}"),
+            })
+        });
+        let dt = ctl.state().dt_prev.unwrap_or(0.5 * s.grid().h);
+        group.bench_function(BenchmarkId::new("bare", particles), |b| {
+            b.iter(|| {
+                if let Err(e) = s.try_step(black_box(dt)).and_then(|()| s.accept()) {
+                    panic!("step failed: {e}");
+                }
+            })
+        });
+    }
+    group.finish();
+}
+
+fn all_limits() -> Vec<Box<dyn StepLimit>> {
+    let temporal = match TemporalError::new(TemporalErrorConfig::default()) {
+        Ok(l) => l,
+        Err(e) => panic!("bench set-up failed: {e}"),
+    };
+    let growth = match GrowthMonitor::new(GrowthConfig::default()) {
+        Ok(l) => l,
+        Err(e) => panic!("bench set-up failed: {e}"),
+    };
+    vec![
+        Box::new(stability()),
+        Box::new(sound_speed_cap()),
+        Box::new(temporal),
+        Box::new(growth),
+    ]
+}
+
+fn bench_limits(c: &mut Criterion) {
+    let particles = 100_000;
+    let mut s = stepper(particles);
+    // Advance a few steps with the controller so the state is not the initial one.
+    let mut ctl = controller();
+    for _ in 0..5 {
+        if let Err(e) = ctl.step(&mut s, f64::INFINITY) {
+            panic!("controller failed: {e}");
+        }
+    }
+    let dt = ctl.state().dt_prev.unwrap_or(0.5 * s.grid().h);
+    let mut limits = all_limits();
+    let mut group = c.benchmark_group("limit_propose");
+    group.sample_size(20);
+    // Propose alternates between the committed state and the trial one step ahead, so the
+    // λmax tracker does a warm update on a changed state each time, as in a run.
+    if let Err(e) = s.try_step(dt) {
+        panic!("step failed: {e}");
+    }
+    for limit in limits.iter_mut() {
+        let name = limit.name().to_string();
+        let before = s.view();
+        let Some(after) = s.trial_view() else {
+            panic!("no trial after try_step");
+        };
+        let mut flip = false;
+        group.bench_function(name, |b| {
+            b.iter(|| {
+                flip = !flip;
+                let v = if flip { &after } else { &before };
+                match limit.propose(v) {
+                    Ok(p) => black_box(p),
+                    Err(e) => panic!("propose failed: {e}"),
+                }
+            })
+        });
+    }
+    group.finish();
+    let mut group = c.benchmark_group("limit_judge");
+    group.sample_size(20);
+    for limit in limits.iter_mut() {
+        let name = limit.name().to_string();
+        let before = s.view();
+        let Some(after) = s.trial_view() else {
+            panic!("no trial after try_step");
+        };
+        if let Err(e) = limit.propose(&before) {
+            panic!("propose failed: {e}");
+        }
+        group.bench_function(name, |b| {
+            b.iter(|| match limit.judge(&before, &after, dt) {
+                Ok(j) => black_box(j),
+                Err(e) => panic!("judge failed: {e}"),
+            })
+        });
+    }
+    group.finish();
+}
+
+fn config() -> Criterion {
+    Criterion::default()
+        .warm_up_time(Duration::from_secs(1))
+        .measurement_time(Duration::from_secs(3))
+}
+
+criterion_group! {
+    name = benches;
+    config = config();
+    targets = bench_overhead, bench_limits
+}
+criterion_main!(benches);
