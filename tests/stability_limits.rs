@@ -178,3 +178,55 @@ fn checkpoint_and_scale_safety() {
     s.scale_safety(0.5);
     assert!((s.config().alpha - 0.25).abs() < 1e-15);
 }
+
+/// The default [`mpm_dt::stability::Refresh`] policy serves most proposals from the cached
+/// λmax, yet follows a linear-hat layout whose critical step collapses as particles slide into
+/// a small-mass configuration: every proposal stays below the exact eq 56 step of its own
+/// layout and within a few per cent of what an update at every step would propose.
+#[test]
+fn cached_lambda_max_follows_a_collapsing_layout() {
+    let cells = 32;
+    let start = uniform(cells, 1.0, 2);
+    let end = small_mass(cells, 1.0, 11);
+    let mut fx = Fixture::new(periodic(cells, 1.0), Shape::Linear, start.clone(), 1.0, 1.0);
+    let mut cached = Stability::new(StabilityConfig::default()).unwrap();
+    let mut every = Stability::new(StabilityConfig {
+        refresh: mpm_dt::stability::Refresh::every_step(),
+        ..StabilityConfig::default()
+    })
+    .unwrap();
+    let safety = StabilityConfig::default().safety;
+    let steps = 400;
+    let mut updates = 0;
+    for s in 0..=steps {
+        let a = s as f64 / steps as f64;
+        fx.x = start
+            .iter()
+            .zip(&end)
+            .map(|(x0, x1)| x0 + a * (x1 - x0))
+            .collect();
+        fx.refresh();
+        let view = fx.view();
+        let p = cached.propose(&view).unwrap();
+        let q = every.propose(&view).unwrap();
+        if p.metrics["lanczos_applications"] > 0.0 {
+            updates += 1;
+        }
+        let exact = Eq56Operator::critical_dt(
+            Eq56Operator::new(&view)
+                .unwrap()
+                .dense_lambda_max()
+                .unwrap(),
+        );
+        assert!(p.dt <= exact, "step {s}: proposed {} > exact {exact}", p.dt);
+        assert!(
+            p.dt >= 0.9 * q.dt,
+            "step {s}: cached {} vs every-step {} (safety {safety})",
+            p.dt,
+            q.dt
+        );
+    }
+    eprintln!("{updates} λmax updates in {steps} proposals");
+    assert!(updates < steps / 3, "{updates} updates in {steps} steps");
+    assert!(updates > 1, "the collapse must trigger updates");
+}

@@ -18,6 +18,22 @@
 //! of the same size. A trial whose stress has no curvature (`Δσ = 0`) carries no information
 //! and is not rejected by eq 58.
 //!
+//! # When λmax is recomputed ([`Refresh`])
+//!
+//! A Lanczos update costs a few applications of `B`, each about a tenth of a reference solver
+//! step, so recomputing λmax at every step would make the limit cost half a step or more. But
+//! `λmax(B)` depends only on the particle layout (positions through `S`, `D` and the nodal
+//! masses) and on the per-particle weights `E_t,p V_p` — all of which change by a small amount
+//! per step. The limit therefore re-runs Lanczos only when the state has drifted from the one
+//! of the last update: some particle moved more than `max_displacement · h`, some nodal mass
+//! changed by more than the relative `max_mass_change` (or a node switched between active and
+//! inactive), some `E_t,p V_p` changed by more than `max_modulus_change`, or `max_steps`
+//! proposals have passed. Between updates it proposes from the cached λmax, and eq 58 (which
+//! needs the Section 4 estimates) is evaluated only on the trial that follows an update. The
+//! thresholds bound the drift of λmax between updates (`λ ∝ E V / m`, so a 5 % mass or modulus
+//! change moves `dt_eq56` by about 2.5 %, inside the default safety 0.9); `max_steps = 1`
+//! recomputes at every step.
+//!
 //! The safety factor can be changed at run time ([`Stability::set_safety`]): the controller's
 //! growth monitor lowers it when it sees the slow instability of moving particles.
 
@@ -42,6 +58,133 @@ pub struct StabilityConfig {
     pub reading: Bound58Reading,
     /// The Lanczos settings of the λmax tracker.
     pub lanczos: LanczosConfig,
+    /// When λmax is recomputed (see the module docs).
+    pub refresh: Refresh,
+}
+
+/// When the [`Stability`] limit re-runs its λmax update (module docs, "When λmax is
+/// recomputed"). An update happens when any threshold is crossed.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Refresh {
+    /// Most proposals served from one update (default 10; 1 = update every step).
+    pub max_steps: u32,
+    /// Largest particle displacement since the update, in cells (default 0.05).
+    pub max_displacement: f64,
+    /// Largest relative change of an active nodal mass since the update (default 0.05).
+    pub max_mass_change: f64,
+    /// Largest relative change of a particle's `E_t V` since the update (default 0.05).
+    pub max_modulus_change: f64,
+}
+
+impl Default for Refresh {
+    fn default() -> Self {
+        Self {
+            max_steps: 10,
+            max_displacement: 0.05,
+            max_mass_change: 0.05,
+            max_modulus_change: 0.05,
+        }
+    }
+}
+
+impl Refresh {
+    /// Recompute at every proposal.
+    pub fn every_step() -> Self {
+        Self {
+            max_steps: 1,
+            ..Self::default()
+        }
+    }
+
+    fn validate(&self) -> Result<(), StabilityError> {
+        let checks = [
+            ("refresh.max_displacement", self.max_displacement),
+            ("refresh.max_mass_change", self.max_mass_change),
+            ("refresh.max_modulus_change", self.max_modulus_change),
+        ];
+        for (field, value) in checks {
+            if !(value.is_finite() && value >= 0.0) {
+                return Err(StabilityError::InvalidConfig {
+                    field,
+                    value,
+                    reason: "must be non-negative and finite",
+                });
+            }
+        }
+        if self.max_steps == 0 {
+            return Err(StabilityError::InvalidConfig {
+                field: "refresh.max_steps",
+                value: 0.0,
+                reason: "must be at least 1",
+            });
+        }
+        Ok(())
+    }
+}
+
+/// The state at the last λmax update, against which drift is measured.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+struct RefreshReference {
+    x: Vec<f64>,
+    modulus_volume: Vec<f64>,
+    node_mass: Vec<f64>,
+    node_active: Vec<bool>,
+    proposals: u32,
+}
+
+impl RefreshReference {
+    fn of(state: &View<'_>) -> Self {
+        Self {
+            x: state.x.to_vec(),
+            modulus_volume: modulus_volume(state).collect(),
+            node_mass: state.node_mass.to_vec(),
+            node_active: state.node_active.to_vec(),
+            proposals: 0,
+        }
+    }
+
+    /// Whether `state` has drifted past a threshold of `r`.
+    fn stale(&self, state: &View<'_>, r: &Refresh) -> bool {
+        if self.proposals >= r.max_steps
+            || self.x.len() != state.x.len()
+            || self.node_mass.len() != state.node_mass.len()
+            || self.node_active != state.node_active
+        {
+            return true;
+        }
+        let nodes_drifted = self
+            .node_mass
+            .iter()
+            .zip(state.node_mass)
+            .zip(state.node_active)
+            .any(|((&m0, &m), &a)| a && (m - m0).abs() > r.max_mass_change * m0);
+        if nodes_drifted {
+            return true;
+        }
+        let grid = state.grid;
+        let reach = r.max_displacement * grid.h;
+        let moved = self.x.iter().zip(state.x).any(|(&x0, &x)| {
+            // Minimum-image displacement on periodic grids.
+            grid.offset(0, x - x0 + grid.node_x(0)).abs() > reach
+        });
+        moved
+            || self
+                .modulus_volume
+                .iter()
+                .zip(modulus_volume(state))
+                .any(|(&k0, k)| (k - k0).abs() > r.max_modulus_change * k0.abs())
+    }
+}
+
+/// The per-particle weights `E_t,p F_p V⁰_p` of the operator `B`.
+fn modulus_volume<'a>(state: &'a View<'_>) -> impl Iterator<Item = f64> + 'a {
+    state
+        .tangent_modulus
+        .iter()
+        .zip(state.f)
+        .zip(state.volume0)
+        .map(|((&e, &f), &v0)| e * f * v0)
 }
 
 impl Default for StabilityConfig {
@@ -51,6 +194,7 @@ impl Default for StabilityConfig {
             tol: 1e-6,
             reading: Bound58Reading::Consistent,
             lanczos: LanczosConfig::default(),
+            refresh: Refresh::default(),
         }
     }
 }
@@ -73,6 +217,9 @@ pub struct Stability {
     config: StabilityConfig,
     tracker: LambdaMaxTracker,
     buffers: OperatorBuffers,
+    reference: Option<RefreshReference>,
+    /// Whether the last proposal ran a λmax update (eq 58 is then checked on its trial).
+    fresh: bool,
 }
 
 impl Stability {
@@ -86,10 +233,13 @@ impl Stability {
                 reason: "must be non-negative and finite",
             });
         }
+        config.refresh.validate()?;
         Ok(Self {
             config,
             tracker: LambdaMaxTracker::new(config.lanczos)?,
             buffers: OperatorBuffers::default(),
+            reference: None,
+            fresh: false,
         })
     }
 
@@ -133,6 +283,34 @@ impl Stability {
         self.buffers = op.into_buffers();
         est
     }
+
+    /// The λmax estimate for `state`: the cached one while `state` has not drifted past the
+    /// [`Refresh`] thresholds, a fresh update otherwise. Returns whether it updated.
+    fn tracked_estimate(
+        &mut self,
+        state: &View<'_>,
+    ) -> Result<(LambdaEstimate, bool), StabilityError> {
+        let cached = self.tracker.last().filter(|_| {
+            self.reference
+                .as_ref()
+                .is_some_and(|r| !r.stale(state, &self.config.refresh))
+        });
+        match cached {
+            Some(est) => {
+                if let Some(r) = self.reference.as_mut() {
+                    r.proposals += 1;
+                }
+                Ok((est, false))
+            }
+            None => {
+                let est = self.estimate(state)?;
+                let mut reference = RefreshReference::of(state);
+                reference.proposals = 1;
+                self.reference = Some(reference);
+                Ok((est, true))
+            }
+        }
+    }
 }
 
 /// What [`StepLimit::save_state`] stores: the safety factor and the tracker's warm start.
@@ -140,6 +318,8 @@ impl Stability {
 struct SavedState {
     safety: f64,
     tracker: super::lambda_max::TrackerState,
+    reference: Option<RefreshReference>,
+    fresh: bool,
 }
 
 impl StepLimit for Stability {
@@ -160,6 +340,8 @@ impl StepLimit for Stability {
         serde_json::to_value(SavedState {
             safety: self.config.safety,
             tracker: self.tracker.state(),
+            reference: self.reference.clone(),
+            fresh: self.fresh,
         })
         .ok()
     }
@@ -173,18 +355,24 @@ impl StepLimit for Stability {
         check_safety(saved.safety).map_err(|e| e.into_limit_error("stability", f64::NAN))?;
         self.config.safety = saved.safety;
         self.tracker.restore(saved.tracker);
+        self.reference = saved.reference;
+        self.fresh = saved.fresh;
         Ok(())
     }
 
     fn propose(&mut self, state: &View<'_>) -> Result<Proposal, LimitError> {
-        let est = self
-            .estimate(state)
+        let (est, fresh) = self
+            .tracked_estimate(state)
             .map_err(|e| e.into_limit_error("stability", state.t))?;
+        self.fresh = fresh;
         let dt = self.config.safety * est.dt_eq56;
         let mut metrics = Metrics::new();
         metrics.insert("lambda_max".into(), est.lambda_hat);
         metrics.insert("dt_eq56".into(), est.dt_eq56);
-        metrics.insert("lanczos_applications".into(), est.applications as f64);
+        metrics.insert(
+            "lanczos_applications".into(),
+            if fresh { est.applications as f64 } else { 0.0 },
+        );
         metrics.insert("lanczos_residual".into(), est.residual);
         metrics.insert("safety".into(), self.config.safety);
         tracing::debug!(
@@ -206,12 +394,19 @@ impl StepLimit for Stability {
     ) -> Result<Judgement, LimitError> {
         let est = match self.tracker.last() {
             Some(e) => e,
-            None => self
-                .estimate(before)
-                .map_err(|e| e.into_limit_error("stability", before.t))?,
+            None => {
+                self.fresh = true;
+                self.estimate(before)
+                    .map_err(|e| e.into_limit_error("stability", before.t))?
+            }
         };
-        let b = bound58(after, dt, self.config.reading)
-            .map_err(|e| e.into_limit_error("stability", after.t))?;
+        // Eq 58 needs the Section 4 estimates: checked on the trial after each λmax update.
+        let b = if self.fresh {
+            bound58(after, dt, self.config.reading)
+                .map_err(|e| e.into_limit_error("stability", after.t))?
+        } else {
+            None
+        };
         let mut metrics = Metrics::new();
         metrics.insert("lambda_max".into(), est.lambda_hat);
         metrics.insert("dt_eq56".into(), est.dt_eq56);

@@ -73,6 +73,6 @@ pub use lambda_max::{LambdaEstimate, LambdaMaxTracker, LanczosConfig, TrackerSta
 
 pub use bound58::{bound58, Bound58, Bound58Reading};
 pub use empirical::{EmpiricalConfig, EmpiricalCritical, Protocol, RunOutcome};
-pub use limit::{Stability, StabilityConfig};
+pub use limit::{Refresh, Stability, StabilityConfig};
 pub use operator::Eq56Operator;
 pub use sound_speed::{SoundSpeed, SoundSpeedConfig};
