@@ -1,18 +1,30 @@
-//! The main job: run a scenario of the reference solver (the vibrating bar by default).
+//! The main job: run a scenario of the reference solver (the vibrating bar by default) under
+//! the adaptive controller.
 //!
 //! ```text
-//! cargo run --release --example vibrating_bar -- [--scenario FILE] [--fixed-dt DT --steps K] [--json]
+//! cargo run --release --example vibrating_bar -- [--scenario FILE] [--json] [--log-json]
+//!     [--plot FILE.svg] [--fixed-dt DT --steps K]
 //! ```
 //!
-//! Without `--fixed-dt` the scenario runs to `t_end`. The adaptive controller is not wired
-//! into this example yet: until it is, the run uses a fixed `dt = 0.5 h/c` (half the
-//! sound-speed step of eq 49, which is below the true GIMP critical step) and says so in its
-//! log and output. With `--fixed-dt DT --steps K` it runs exactly K steps of DT and also
-//! prints the particle state. `--json` prints one JSON document on stdout (DESIGN.md keys);
-//! logs go to stderr (`RUST_LOG` filters them, default `info`).
+//! Without `--fixed-dt` the scenario runs to `t_end` under [`Controller`] with the
+//! [`Stability`] limit (tracked eq 56 step at safety 0.95, eq 58 check; the growth monitor
+//! lowers the safety when it sees growth), the temporal error limit
+//! (eqs 20–30) and the growth monitor; the scenario's `controller` field, if present, is the
+//! [`ControllerConfig`]. Logs go to stderr: human-readable by default, one JSON object per
+//! event with `--log-json` (an INFO event per attempted step with its decision; `RUST_LOG`
+//! filters, default `info`; `RUST_LOG=debug` adds each limit's proposal and the full
+//! decision). `--json` prints one summary document on stdout (DESIGN.md keys plus
+//! `rejected_by_cause`, `growth_events`, `safety_scale`). `--plot FILE.svg` draws dt against
+//! t with each limit's proposal and the rejected attempts marked.
+//!
+//! With `--fixed-dt DT --steps K` it runs exactly K plain steps of DT without the controller
+//! and also prints the particle state.
 
+use mpm_dt::controller::{Controller, ControllerConfig, Decision, Outcome, Stats};
+use mpm_dt::limit::StepLimit;
 use mpm_dt::mpm::{Material, ReferenceStepper};
 use mpm_dt::scenario::Scenario;
+use mpm_dt::stability::{Stability, StabilityConfig};
 use mpm_dt::Stepper;
 use serde_json::json;
 use std::collections::BTreeMap;
@@ -24,9 +36,11 @@ struct Args {
     fixed_dt: Option<f64>,
     steps: Option<u64>,
     json: bool,
+    log_json: bool,
+    plot: Option<String>,
 }
 
-const USAGE: &str = "usage: vibrating_bar [--scenario FILE] [--fixed-dt DT --steps K] [--json]";
+const USAGE: &str = "usage: vibrating_bar [--scenario FILE] [--json] [--log-json] [--plot FILE.svg] [--fixed-dt DT --steps K]";
 
 fn parse_args() -> Result<Args, String> {
     let mut args = Args {
@@ -34,6 +48,8 @@ fn parse_args() -> Result<Args, String> {
         fixed_dt: None,
         steps: None,
         json: false,
+        log_json: false,
+        plot: None,
     };
     let mut it = std::env::args().skip(1);
     while let Some(a) = it.next() {
@@ -58,6 +74,8 @@ fn parse_args() -> Result<Args, String> {
                 );
             }
             "--json" => args.json = true,
+            "--log-json" => args.log_json = true,
+            "--plot" => args.plot = Some(value("--plot")?),
             "-h" | "--help" => return Err(USAGE.into()),
             other => return Err(format!("unknown argument {other}\n{USAGE}")),
         }
@@ -100,14 +118,172 @@ fn drive(
     Run { dts, failure: None }
 }
 
-fn main() -> ExitCode {
-    tracing_subscriber::fmt()
+/// Installs the stderr subscriber: human-readable, or JSON lines with `--log-json`.
+fn init_logs(json: bool) {
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
+    let builder = tracing_subscriber::fmt()
         .with_writer(std::io::stderr)
-        .with_env_filter(
-            tracing_subscriber::EnvFilter::try_from_default_env()
-                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info")),
-        )
-        .init();
+        .with_env_filter(filter);
+    if json {
+        builder.json().with_current_span(true).init();
+    } else {
+        builder.init();
+    }
+}
+
+/// The controller run: stability + temporal error + growth monitor, config from the
+/// scenario's `controller` field.
+fn run_controller(
+    stepper: &mut ReferenceStepper,
+    scenario: &Scenario,
+    decisions: &mut Vec<Decision>,
+) -> Result<(Run, Stats, f64), String> {
+    let config = match &scenario.controller {
+        Some(v) => ControllerConfig::from_value(v.clone()).map_err(|e| e.to_string())?,
+        None => ControllerConfig::default(),
+    };
+    // Start the eq 56 limit at safety 0.95 and let the growth monitor lower it (×0.9 per
+    // detection, `StepLimit::scale_safety`) when moving particles make that too bold.
+    let stability = Stability::new(StabilityConfig {
+        safety: 0.95,
+        ..StabilityConfig::default()
+    })
+    .map_err(|e| e.to_string())?;
+    let limits: Vec<Box<dyn StepLimit>> = vec![Box::new(stability)];
+    let mut controller =
+        Controller::with_default_limits(config, limits).map_err(|e| e.to_string())?;
+    tracing::info!(
+        t_end = scenario.t_end,
+        limits = ?controller.limit_names(),
+        "adaptive controller run"
+    );
+    let result = controller
+        .run_until(stepper, scenario.t_end, &mut |d| decisions.push(d.clone()))
+        .map(|_| ());
+    let dts = decisions
+        .iter()
+        .filter(|d| d.outcome == Outcome::Accepted)
+        .map(|d| d.dt)
+        .collect();
+    let failure = result.err().map(|e| {
+        tracing::error!(error = %e, "controller stopped");
+        e.to_string()
+    });
+    Ok((
+        Run { dts, failure },
+        controller.stats().clone(),
+        controller.state().safety_scale,
+    ))
+}
+
+/// Draws dt against t: accepted steps, each limit's proposal, rejected attempts.
+fn plot(path: &str, decisions: &[Decision]) -> Result<(), Box<dyn std::error::Error>> {
+    use plotters::prelude::*;
+    let accepted: Vec<(f64, f64)> = decisions
+        .iter()
+        .filter(|d| d.outcome == Outcome::Accepted)
+        .map(|d| (d.t, d.dt))
+        .collect();
+    let rejected: Vec<(f64, f64)> = decisions
+        .iter()
+        .filter(|d| d.outcome == Outcome::Rejected)
+        .map(|d| (d.t, d.dt))
+        .collect();
+    let mut names: Vec<String> = Vec::new();
+    for d in decisions {
+        for l in &d.limits {
+            if l.proposal.is_some() && !names.contains(&l.name) {
+                names.push(l.name.clone());
+            }
+        }
+    }
+    let proposals: Vec<Vec<(f64, f64)>> = names
+        .iter()
+        .map(|n| {
+            decisions
+                .iter()
+                .filter(|d| d.attempt == 1)
+                .filter_map(|d| {
+                    d.limits
+                        .iter()
+                        .find(|l| &l.name == n)
+                        .and_then(|l| l.proposal)
+                        .map(|p| (d.t, p))
+                })
+                .collect()
+        })
+        .collect();
+    let filter: Vec<(f64, f64)> = decisions
+        .iter()
+        .filter(|d| d.attempt == 1)
+        .filter_map(|d| d.filter_dt.map(|f| (d.t, f)))
+        .collect();
+    let all = accepted
+        .iter()
+        .chain(&rejected)
+        .chain(proposals.iter().flatten())
+        .chain(&filter);
+    let (mut t1, mut lo, mut hi) = (0.0_f64, f64::INFINITY, 0.0_f64);
+    for &(t, dt) in all {
+        t1 = t1.max(t);
+        lo = lo.min(dt);
+        hi = hi.max(dt);
+    }
+    if !(lo.is_finite() && hi > 0.0) {
+        return Err("nothing to plot".into());
+    }
+    let root = SVGBackend::new(path, (1000, 600)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption("time step against time", ("sans-serif", 22))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(70)
+        .build_cartesian_2d(
+            0.0..t1.max(1e-300) * 1.02,
+            (lo * 0.8..hi * 1.25).log_scale(),
+        )?;
+    chart.configure_mesh().x_desc("t").y_desc("dt").draw()?;
+    chart
+        .draw_series(LineSeries::new(
+            accepted.iter().copied(),
+            BLACK.stroke_width(2),
+        ))?
+        .label("accepted dt")
+        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK));
+    for (i, (name, pts)) in names.iter().zip(&proposals).enumerate() {
+        let color = Palette99::pick(i + 1).to_rgba();
+        chart
+            .draw_series(LineSeries::new(pts.iter().copied(), color))?
+            .label(format!("{name} proposal"))
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color));
+    }
+    if !filter.is_empty() {
+        let color = Palette99::pick(names.len() + 2).to_rgba();
+        chart
+            .draw_series(LineSeries::new(filter.iter().copied(), color))?
+            .label("filter proposal")
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color));
+    }
+    chart
+        .draw_series(
+            rejected
+                .iter()
+                .map(|&p| Cross::new(p, 5, RED.stroke_width(2))),
+        )?
+        .label("rejected attempt")
+        .legend(|(x, y)| Cross::new((x + 10, y), 5, RED.stroke_width(2)));
+    chart
+        .configure_series_labels()
+        .border_style(BLACK)
+        .background_style(WHITE.mix(0.8))
+        .draw()?;
+    root.present()?;
+    Ok(())
+}
+
+fn main() -> ExitCode {
     let args = match parse_args() {
         Ok(a) => a,
         Err(msg) => {
@@ -115,6 +291,7 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
+    init_logs(args.log_json);
     let scenario = match &args.scenario {
         Some(path) => match Scenario::from_file(path) {
             Ok(s) => s,
@@ -137,28 +314,31 @@ fn main() -> ExitCode {
     let h = stepper.grid().h;
     let c = scenario.wave_speed();
 
+    let mut decisions: Vec<Decision> = Vec::new();
+    let mut controller_stats: Option<(Stats, f64)> = None;
     let (run, mode) = match (args.fixed_dt, args.steps) {
         (Some(dt), Some(k)) => {
             tracing::info!(dt, steps = k, "fixed-dt run (no controller)");
             let run = drive(&mut stepper, |s| (s.step_count() < k).then_some(dt));
             (run, "fixed_dt")
         }
-        _ => {
-            let dt = 0.5 * h / c;
-            tracing::warn!(
-                dt,
-                t_end = scenario.t_end,
-                "the adaptive controller is not yet wired into this example: running with fixed dt = 0.5 h/c"
-            );
-            let t_end = scenario.t_end;
-            let run = drive(&mut stepper, |s| {
-                let left = t_end - s.time();
-                // Stop when what is left is round-off of t_end.
-                (left > 1e-12 * t_end).then(|| dt.min(left))
-            });
-            (run, "fixed_dt_default")
-        }
+        _ => match run_controller(&mut stepper, &scenario, &mut decisions) {
+            Ok((run, stats, safety_scale)) => {
+                controller_stats = Some((stats, safety_scale));
+                (run, "controller")
+            }
+            Err(e) => {
+                eprintln!("error: {e}");
+                return ExitCode::from(1);
+            }
+        },
     };
+    if let Some(path) = &args.plot {
+        if let Err(e) = plot(path, &decisions) {
+            eprintln!("error: cannot draw {path}: {e}");
+            return ExitCode::from(1);
+        }
+    }
 
     let view = stepper.view();
     let energy_final = stepper.total_energy();
@@ -184,21 +364,30 @@ fn main() -> ExitCode {
     } else {
         f64::NAN
     };
-    let mut binding = BTreeMap::new();
-    binding.insert(mode.to_string(), n);
+    let mut binding: BTreeMap<String, u64> = BTreeMap::new();
+    let mut steps_rejected = 0;
+    match &controller_stats {
+        Some((stats, _)) => {
+            binding.clone_from(&stats.binding);
+            steps_rejected = stats.rejected;
+        }
+        None => {
+            binding.insert(mode.to_string(), n as u64);
+        }
+    }
     let finite = |x: f64| x.is_finite().then_some(x);
 
     let mut out = json!({
         "t_final": view.t,
         "steps_accepted": n,
-        "steps_rejected": 0,
+        "steps_rejected": steps_rejected,
         "blew_up": blew_up,
         "failure": run.failure,
         "dt_min": finite(dt_min),
         "dt_mean": finite(dt_mean),
         "dt_max": if n > 0 { Some(dt_max) } else { None },
         "binding": binding,
-        "controller": "not yet wired: fixed dt",
+        "mode": mode,
         "velocity_error_linf": velocity_error_linf,
         "energy_initial": energy_initial,
         "energy_final": finite(energy_final),
@@ -208,6 +397,11 @@ fn main() -> ExitCode {
         "h": h,
         "wave_speed": c,
     });
+    if let Some((stats, safety_scale)) = &controller_stats {
+        out["rejected_by_cause"] = json!(stats.rejected_by_cause);
+        out["growth_events"] = json!(stats.growth_events);
+        out["safety_scale"] = json!(safety_scale);
+    }
     if args.fixed_dt.is_some() {
         out["state"] = json!({ "x": view.x, "v": view.v, "sigma": view.sigma, "F": view.f });
     }
@@ -215,14 +409,16 @@ fn main() -> ExitCode {
         println!("{out}");
     } else {
         println!(
-            "t = {:.6}  steps = {}  dt = {:.3e}  blew up: {}  energy {:.6e} -> {:.6e}  |v - v_exact|_inf = {}",
+            "t = {:.6}  steps = {} ({} rejected)  mean dt = {:.3e}  blew up: {}  energy {:.6e} -> {:.6e}  |v - v_exact|_inf = {}  binding {:?}",
             view.t,
             n,
+            steps_rejected,
             dt_mean,
             blew_up,
             energy_initial,
             energy_final,
             velocity_error_linf.map_or("n/a".to_string(), |e| format!("{e:.3e}")),
+            binding,
         );
     }
     // A blow-up is a result (`blew_up`), not a failure of the program.
