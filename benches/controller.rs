@@ -16,7 +16,11 @@
 //!   `judge`, the accept and the limits' `accepted` hooks). Throughput is in particles. The
 //!   overhead ratio is `controlled / bare`.
 //! - `limit_propose/NAME` and `limit_judge/NAME` at 10⁵ particles: each limit's share of
-//!   the overhead (propose on the committed state, judge of one trial against it).
+//!   the overhead (propose alternating between two states one step apart, judge of one trial
+//!   against the committed state). `stability_every_step` is the stability limit with
+//!   `Refresh::every_step()` (a Lanczos update at every proposal), for comparison with the
+//!   default refresh policy. `propose` of the default `stability` alternates between two
+//!   states within its thresholds, so it measures the cached path plus the staleness check.
 //!
 //! The λmax tracker's own cost (operator build, one application, warm update) is in
 //! `benches/stability.rs`; the estimators' in `benches/estimators.rs`.
@@ -28,7 +32,7 @@ use mpm_dt::controller::{
 };
 use mpm_dt::mpm::{Material, ReferenceStepper};
 use mpm_dt::problems::StandingWave;
-use mpm_dt::stability::{SoundSpeed, SoundSpeedConfig, Stability, StabilityConfig};
+use mpm_dt::stability::{Refresh, SoundSpeed, SoundSpeedConfig, Stability, StabilityConfig};
 use mpm_dt::{Boundary, Grid, Shape, StepLimit, Stepper};
 use std::hint::black_box;
 use std::time::Duration;
@@ -102,7 +106,9 @@ fn bench_overhead(c: &mut Criterion) {
     group.finish();
 }
 
-fn all_limits() -> Vec<Box<dyn StepLimit>> {
+/// Every limit of the controlled run, labelled, plus the stability limit recomputing λmax at
+/// every step (`Refresh::every_step`) to show what the refresh policy saves.
+fn all_limits() -> Vec<(&'static str, Box<dyn StepLimit>)> {
     let temporal = match TemporalError::new(TemporalErrorConfig::default()) {
         Ok(l) => l,
         Err(e) => panic!("bench set-up failed: {e}"),
@@ -111,11 +117,19 @@ fn all_limits() -> Vec<Box<dyn StepLimit>> {
         Ok(l) => l,
         Err(e) => panic!("bench set-up failed: {e}"),
     };
+    let every_step = match Stability::new(StabilityConfig {
+        refresh: Refresh::every_step(),
+        ..StabilityConfig::default()
+    }) {
+        Ok(l) => l,
+        Err(e) => panic!("bench set-up failed: {e}"),
+    };
     vec![
-        Box::new(stability()),
-        Box::new(sound_speed_cap()),
-        Box::new(temporal),
-        Box::new(growth),
+        ("stability", Box::new(stability())),
+        ("stability_every_step", Box::new(every_step)),
+        ("sound_speed", Box::new(sound_speed_cap())),
+        ("temporal_error", Box::new(temporal)),
+        ("growth", Box::new(growth)),
     ]
 }
 
@@ -138,8 +152,8 @@ fn bench_limits(c: &mut Criterion) {
     if let Err(e) = s.try_step(dt) {
         panic!("step failed: {e}");
     }
-    for limit in limits.iter_mut() {
-        let name = limit.name().to_string();
+    for (name, limit) in limits.iter_mut() {
+        let name = *name;
         let before = s.view();
         let Some(after) = s.trial_view() else {
             panic!("no trial after try_step");
@@ -159,8 +173,8 @@ fn bench_limits(c: &mut Criterion) {
     group.finish();
     let mut group = c.benchmark_group("limit_judge");
     group.sample_size(20);
-    for limit in limits.iter_mut() {
-        let name = limit.name().to_string();
+    for (name, limit) in limits.iter_mut() {
+        let name = *name;
         let before = s.view();
         let Some(after) = s.trial_view() else {
             panic!("no trial after try_step");

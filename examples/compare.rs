@@ -15,6 +15,8 @@
 //!   binding on GIMP layouts at rest; it protects against particles crossing cells when
 //!   `‖v‖_∞` is large), then the temporal error limit and the growth monitor from the
 //!   controller config (the scenario's `controller` field, else the defaults).
+//!   `--refresh-every-step` makes the stability limit recompute λmax at every step
+//!   (`Refresh::every_step`) instead of its default refresh policy.
 //!
 //! A run *blows up* when the stepper returns an error, any particle value is not finite, the
 //! total energy exceeds 10× its initial value, or a deformation gradient `F ≤ 0` — the
@@ -38,7 +40,7 @@ use mpm_dt::controller::{Controller, ControllerConfig};
 use mpm_dt::limit::StepLimit;
 use mpm_dt::mpm::ReferenceStepper;
 use mpm_dt::scenario::{MaterialKind, Scenario};
-use mpm_dt::stability::{SoundSpeed, SoundSpeedConfig, Stability, StabilityConfig};
+use mpm_dt::stability::{Refresh, SoundSpeed, SoundSpeedConfig, Stability, StabilityConfig};
 use mpm_dt::Stepper;
 use serde::Serialize;
 use std::process::ExitCode;
@@ -50,22 +52,26 @@ const ENERGY_GROWTH: f64 = 10.0;
 /// The fixed multipliers compared.
 const ALPHAS: [f64; 4] = [0.3, 0.4, 0.5, 0.9];
 
-const USAGE: &str = "usage: compare --scenario FILE [--json]";
+const USAGE: &str = "usage: compare --scenario FILE [--json] [--refresh-every-step]";
 
 /// Command-line options.
 struct Args {
     scenario: String,
     json: bool,
+    /// Recompute λmax at every step (`Refresh::every_step`) instead of the default policy.
+    refresh_every_step: bool,
 }
 
 fn parse_args() -> Result<Args, String> {
     let mut scenario = None;
     let mut json = false;
+    let mut refresh_every_step = false;
     let mut it = std::env::args().skip(1);
     while let Some(a) = it.next() {
         match a.as_str() {
             "--scenario" => scenario = Some(it.next().ok_or("--scenario needs a value")?),
             "--json" => json = true,
+            "--refresh-every-step" => refresh_every_step = true,
             "-h" | "--help" => return Err(USAGE.into()),
             other => return Err(format!("unknown argument {other}\n{USAGE}")),
         }
@@ -73,6 +79,7 @@ fn parse_args() -> Result<Args, String> {
     Ok(Args {
         scenario: scenario.ok_or(format!("--scenario is required\n{USAGE}"))?,
         json,
+        refresh_every_step,
     })
 }
 
@@ -198,20 +205,29 @@ fn run_fixed(
 }
 
 /// The recommended limit set (see the module docs).
-fn mpm_dt_limits() -> Result<Vec<Box<dyn StepLimit>>, String> {
-    let stability = Stability::new(StabilityConfig::default()).map_err(|e| e.to_string())?;
+fn mpm_dt_limits(refresh_every_step: bool) -> Result<Vec<Box<dyn StepLimit>>, String> {
+    let mut config = StabilityConfig::default();
+    if refresh_every_step {
+        config.refresh = Refresh::every_step();
+    }
+    let stability = Stability::new(config).map_err(|e| e.to_string())?;
     let cap = SoundSpeed::new(SoundSpeedConfig { alpha: 1.0 }).map_err(|e| e.to_string())?;
     Ok(vec![Box::new(stability), Box::new(cap)])
 }
 
 /// mpm-dt's controller.
-fn run_controller(scenario: &Scenario, reference: &Reference<'_>) -> Result<PolicyResult, String> {
+fn run_controller(
+    scenario: &Scenario,
+    reference: &Reference<'_>,
+    refresh_every_step: bool,
+) -> Result<PolicyResult, String> {
     let config = match &scenario.controller {
         Some(v) => ControllerConfig::from_value(v.clone()).map_err(|e| e.to_string())?,
         None => ControllerConfig::default(),
     };
     let mut controller =
-        Controller::with_default_limits(config, mpm_dt_limits()?).map_err(|e| e.to_string())?;
+        Controller::with_default_limits(config, mpm_dt_limits(refresh_every_step)?)
+            .map_err(|e| e.to_string())?;
     let mut stepper = scenario.build().map_err(|e| e.to_string())?;
     let t_end = scenario.t_end;
     let start = Instant::now();
@@ -385,7 +401,7 @@ fn main() -> ExitCode {
             }
         }
     }
-    match run_controller(&scenario, &reference) {
+    match run_controller(&scenario, &reference, args.refresh_every_step) {
         Ok(r) => results.push(r),
         Err(e) => {
             eprintln!("error: mpm-dt: {e}");
@@ -407,6 +423,7 @@ fn main() -> ExitCode {
             "exact_solution_is_reference_only": large_amplitude,
             "policies": results,
             "ratios": ratios,
+            "refresh_every_step": args.refresh_every_step,
         });
         println!("{doc}");
     } else {
