@@ -14,7 +14,9 @@
 //! - `controller_step/{bare,controlled}/N`: `try_step + accept` at the controller's last
 //!   step versus `Controller::step` (every limit's `propose`, the trial, every limit's
 //!   `judge`, the accept and the limits' `accepted` hooks). Throughput is in particles. The
-//!   overhead ratio is `controlled / bare`.
+//!   overhead ratio is `controlled / bare`. `bare_with_view` adds building the trial's
+//!   `View` (lazily computed `S`, `D`, tangent modulus, density, node activity), which any
+//!   limit that reads the trial forces.
 //! - `limit_propose/NAME` and `limit_judge/NAME` at 10⁵ particles: each limit's share of
 //!   the overhead (propose alternating between two states one step apart, judge of one trial
 //!   against the committed state). `stability_every_step` is the stability limit with
@@ -102,6 +104,19 @@ fn bench_overhead(c: &mut Criterion) {
                 }
             })
         });
+        // The bare step plus building the trial's `View` (the lazily computed S, D, tangent
+        // modulus, density and node activity that every limit reading a view forces).
+        group.bench_function(BenchmarkId::new("bare_with_view", particles), |b| {
+            b.iter(|| {
+                if let Err(e) = s.try_step(black_box(dt)) {
+                    panic!("step failed: {e}");
+                }
+                black_box(s.trial_view().map(|v| v.weights.s_of(0).len()));
+                if let Err(e) = s.accept() {
+                    panic!("accept failed: {e}");
+                }
+            })
+        });
     }
     group.finish();
 }
@@ -179,6 +194,12 @@ fn bench_limits(c: &mut Criterion) {
         let Some(after) = s.trial_view() else {
             panic!("no trial after try_step");
         };
+        if let Err(e) = limit.propose(&before) {
+            panic!("propose failed: {e}");
+        }
+        // One accepted step of history (the temporal error limit's steady-state path; without
+        // it, it takes its first-step path).
+        limit.accepted(&before, &after, dt);
         if let Err(e) = limit.propose(&before) {
             panic!("propose failed: {e}");
         }
