@@ -15,17 +15,23 @@
 //! cell), below the 0.85.
 //!
 //! **The "within 10 % of the quarter-step error" is not a property of the method at
-//! these steps.** Over 10⁴ steps (≈ 200 periods) the error is dominated by phase drift. The
-//! symplectic USL step advances a mode of frequency ω with phase error `(ω dt)³/24` per step
-//! (`ω̃ dt = 2 asin(ω dt/2)`), ≈ 0.9 rad in total at 0.67 h/c, comparable to or larger than
-//! the spatial phase error of GIMP with two particles per cell; depending on the layout and
-//! the exact final time the two add up or cancel. Measured ratios (controller / quarter
-//! step): uniform 1.13 (A = 10⁻⁴) and 0.86 (A = 10⁻²), jittered 1.05 and 0.34; with an
-//! earlier revision of the stability limit the uniform A = 10⁻² ratio was 3.9. What is
-//! asserted is that any extra error is explained by the temporal phase drift:
-//! `e_ctrl ≤ e_ref + 1.5 A c Δφ`, `Δφ = Σ_steps (ω dt)³/24 − (same for the reference run)`.
-//! The temporal error limit does not bind here (its `dsm` measures the local error, ≈ 2 % of
-//! the tolerance, not the accumulated phase).
+//! these steps.** Over 10⁴ steps (≈ 200 periods) two errors of the time step accumulate:
+//! * amplitude loss — the USL step with its particle→grid→particle projections dissipates
+//!   energy at a rate roughly proportional to dt: after 10⁴ steps the controller's runs keep
+//!   23–49 % of the initial energy, the quarter-step runs 65–82 %;
+//! * phase drift — `(ω dt)³/24` per step for the leapfrog-like velocity/stress update
+//!   (`ω̃ dt = 2 asin(ω dt/2)`), ≈ 0.9 rad in total at 0.67 h/c,
+//!
+//! and they add to or cancel the spatial phase error depending on the layout and the exact
+//! final time. Measured ratios (controller / quarter step): uniform 1.13 (A = 10⁻⁴) and 0.86
+//! (A = 10⁻²), jittered 1.05 and 0.34 (with an earlier revision of the stability limit the
+//! uniform A = 10⁻² ratio was 3.9). What is asserted instead is that the difference is
+//! explained by these two effects: with `a = √(E_final/E_0)` the amplitude factor of each run
+//! and `Δφ` the difference of their accumulated phase drifts,
+//! `e_ctrl ≤ e_ref + 1.2 A c (|a_ctrl − a_ref| + Δφ)` (triangle inequality on
+//! `A c (a cos(ωt + φ) − cos ωt)`, 20 % for the rest). The temporal error limit does not bind
+//! here (its local `dsm` is ≈ 2 % of the tolerance); a tighter tolerance would buy accuracy
+//! with smaller steps.
 
 use mpm_dt::controller::{Controller, ControllerConfig};
 use mpm_dt::limit::StepLimit;
@@ -157,9 +163,10 @@ fn check(jitter: bool, amplitude: f64) {
     }
     let err_ref = velocity_error(&r, &wave, &x);
     let phase = phase_ctrl - k as f64 * drift(dt_ref);
+    let (energy_ctrl, energy_ref) = (s.total_energy() / e0, r.total_energy() / e0);
     let amp = amplitude * wave.wave_speed();
     eprintln!(
-        "jitter {jitter} A {amplitude:e}: crit {:.4} h/c, mean dt {:.4} h/c ({:.3} crit), rejected {}, binding {:?}, growth events {}, err {err_ctrl:.3e} vs quarter-dt {err_ref:.3e} (ratio {:.2}; temporal phase drift {phase:.3} rad; T = {t_final:.2})",
+        "jitter {jitter} A {amplitude:e}: crit {:.4} h/c, mean dt {:.4} h/c ({:.3} crit), rejected {}, binding {:?}, growth events {}, err {err_ctrl:.3e} vs quarter-dt {err_ref:.3e} (ratio {:.2}; temporal phase drift {phase:.3} rad; T = {t_final:.2}; E/E0 {energy_ctrl:.3} vs {energy_ref:.3})",
         crit * CELLS as f64,
         mean * CELLS as f64,
         mean / crit,
@@ -172,9 +179,10 @@ fn check(jitter: bool, amplitude: f64) {
         mean >= 0.85 * crit,
         "mean dt {mean} < 0.85 × critical {crit}"
     );
+    let amplitude_loss = (energy_ctrl.sqrt() - energy_ref.sqrt()).abs();
     assert!(
-        err_ctrl <= err_ref + 1.5 * amp * phase,
-        "controller error {err_ctrl:e} vs quarter-dt {err_ref:e} + phase drift {phase} rad"
+        err_ctrl <= err_ref + 1.2 * amp * (amplitude_loss + phase),
+        "controller error {err_ctrl:e} vs quarter-dt {err_ref:e} + amplitude {amplitude_loss} + phase {phase} rad"
     );
 }
 
