@@ -20,7 +20,10 @@ fn blown_up(s: &ReferenceStepper, e0: f64) -> bool {
     let view = s.view();
     view.v.iter().any(|v| !v.is_finite())
         || view.f.iter().any(|&f| !(f.is_finite() && f > 0.0))
-        || !(s.total_energy() <= 10.0 * e0)
+        || {
+            let e = s.total_energy();
+            !e.is_finite() || e > 10.0 * e0
+        }
 }
 
 #[test]
