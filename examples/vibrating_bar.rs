@@ -6,11 +6,11 @@
 //!     [--plot FILE.svg] [--fixed-dt DT --steps K]
 //! ```
 //!
-//! Without `--fixed-dt` the scenario runs to `t_end` under [`Controller`] with the
-//! [`Stability`] limit (tracked eq 56 step at safety 0.95, eq 58 check; the growth monitor
-//! lowers the safety when it sees growth), the temporal error limit
-//! (eqs 20–30) and the growth monitor; the scenario's `controller` field, if present, is the
-//! [`ControllerConfig`]. Logs go to stderr: human-readable by default, one JSON object per
+//! Without `--fixed-dt` the scenario runs to `t_end` under [`Controller::standard`]: the
+//! sound-speed cap (eq 49 with `|v|`, α = 1), the stability limit (tracked eq 56 step at
+//! safety 0.95, eq 58 check; the growth monitor lowers the safety when it sees growth), the
+//! temporal error limit (eqs 20–30) and the growth monitor; the scenario's `controller` field,
+//! if present, is the [`mpm_dt::controller::ControllerConfig`]. Logs go to stderr: human-readable by default, one JSON object per
 //! event with `--log-json` (an INFO event per attempted step with its decision; `RUST_LOG`
 //! filters, default `info`; `RUST_LOG=debug` adds each limit's proposal and the full
 //! decision). `--json` prints one summary document on stdout (DESIGN.md keys plus
@@ -20,11 +20,9 @@
 //! With `--fixed-dt DT --steps K` it runs exactly K plain steps of DT without the controller
 //! and also prints the particle state.
 
-use mpm_dt::controller::{Controller, ControllerConfig, Decision, Outcome, Stats};
-use mpm_dt::limit::StepLimit;
+use mpm_dt::controller::{Controller, Decision, Outcome, Stats};
 use mpm_dt::mpm::{Material, ReferenceStepper};
 use mpm_dt::scenario::Scenario;
-use mpm_dt::stability::{Stability, StabilityConfig};
 use mpm_dt::Stepper;
 use serde_json::json;
 use std::collections::BTreeMap;
@@ -139,20 +137,10 @@ fn run_controller(
     scenario: &Scenario,
     decisions: &mut Vec<Decision>,
 ) -> Result<(Run, Stats, f64), String> {
-    let config = match &scenario.controller {
-        Some(v) => ControllerConfig::from_value(v.clone()).map_err(|e| e.to_string())?,
-        None => ControllerConfig::default(),
-    };
-    // Start the eq 56 limit at safety 0.95 and let the growth monitor lower it (×0.9 per
-    // detection, `StepLimit::scale_safety`) when moving particles make that too bold.
-    let stability = Stability::new(StabilityConfig {
-        safety: 0.95,
-        ..StabilityConfig::default()
-    })
-    .map_err(|e| e.to_string())?;
-    let limits: Vec<Box<dyn StepLimit>> = vec![Box::new(stability)];
-    let mut controller =
-        Controller::with_default_limits(config, limits).map_err(|e| e.to_string())?;
+    let config = scenario.controller_config().map_err(|e| e.to_string())?;
+    // The standard set: sound-speed cap, stability (eq 56 at safety 0.95, eq 58 check),
+    // temporal error, growth monitor (which lowers the stability safety when it sees growth).
+    let mut controller = Controller::standard(config).map_err(|e| e.to_string())?;
     tracing::info!(
         t_end = scenario.t_end,
         limits = ?controller.limit_names(),

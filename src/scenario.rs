@@ -22,8 +22,10 @@
 //! `σ = 0`, `F = 1` with `c = √(E/ρ)` (see [`crate::problems`]; `k` a positive integer on a
 //! periodic bar, a positive multiple of ½ on a clamped one) — or `"rest"`.
 //!
-//! `controller` is kept as an untyped JSON value for now: the controller's configuration
-//! type will replace it, and until then it is stored but not interpreted.
+//! `controller` is the [`ControllerConfig`] of the run (`null` or absent: its defaults). It
+//! is stored as JSON and parsed by [`Scenario::controller_config`], which
+//! [`Scenario::validate`] calls, so a bad controller setting is a [`ScenarioError::Invalid`]
+//! naming `controller` and, in its reason, the nested field (e.g. `stability.safety`).
 //!
 //! ```
 //! use mpm_dt::scenario::Scenario;
@@ -46,6 +48,7 @@
 //! `initial`), values of the wrong type and invalid values are [`ScenarioError`]s that name
 //! the field.
 
+use crate::controller::ControllerConfig;
 use crate::grid::{Boundary, Grid};
 use crate::mpm::{Material, ParticleInit, ReferenceStepper, SetupError};
 use crate::problems::{uniform_positions, StandingWave};
@@ -143,7 +146,8 @@ pub struct Scenario {
     pub initial: Initial,
     /// End time (default 1: one period of the default wave).
     pub t_end: f64,
-    /// Controller configuration, untyped until the controller defines it (default none).
+    /// Controller configuration as JSON (a [`ControllerConfig`]; default none, meaning its
+    /// defaults). Read it with [`Scenario::controller_config`].
     pub controller: Option<serde_json::Value>,
 }
 
@@ -283,9 +287,20 @@ impl Scenario {
         Self::from_json(&text)
     }
 
+    /// The controller configuration of the run: the `controller` field parsed and validated,
+    /// or [`ControllerConfig::default`] when it is absent or `null`.
+    pub fn controller_config(&self) -> Result<ControllerConfig, ScenarioError> {
+        match &self.controller {
+            None | Some(serde_json::Value::Null) => Ok(ControllerConfig::default()),
+            Some(v) => ControllerConfig::from_value(v.clone())
+                .map_err(|e| invalid("controller", e.to_string())),
+        }
+    }
+
     /// Checks every value (also called by [`Scenario::from_json`]; call it yourself after
     /// building a scenario in code).
     pub fn validate(&self) -> Result<(), ScenarioError> {
+        self.controller_config()?;
         let positive = |field: &'static str, v: f64| {
             if v.is_finite() && v > 0.0 {
                 Ok(())

@@ -5,6 +5,7 @@ use mpm_dt::controller::{
     ConfigError, ControllerConfig, FilterPreset, GrowthConfig, GrowthIndicator, SoderlindFilter,
     TemporalErrorConfig,
 };
+use mpm_dt::stability::{SoundSpeedConfig, StabilityConfig};
 use proptest::prelude::*;
 use proptest::test_runner::FileFailurePersistence;
 
@@ -218,6 +219,12 @@ fn config() -> impl Strategy<Value = ControllerConfig> {
                 floor: g.5,
                 safety_factor: g.6,
             },
+            // The standard limits: present or left out, with in-range settings.
+            stability: g.0.then_some(StabilityConfig {
+                safety: b.1,
+                ..StabilityConfig::default()
+            }),
+            sound_speed: g.1.then_some(SoundSpeedConfig { alpha: g.4 }),
         })
 }
 

@@ -165,6 +165,21 @@ fn bad_json_scenarios_are_typed_errors_naming_the_field() {
             r#"{"initial": {"gaussian": {}}}"#,
             Type("initial"),
         ),
+        (
+            "unknown controller setting",
+            r#"{"controller": {"anything": 1}}"#,
+            Invalid("controller"),
+        ),
+        (
+            "controller stability safety above 1",
+            r#"{"controller": {"stability": {"safety": 1.5}}}"#,
+            Invalid("controller"),
+        ),
+        (
+            "controller sound-speed factor zero",
+            r#"{"controller": {"sound_speed": {"alpha": 0}}}"#,
+            Invalid("controller"),
+        ),
     ];
     assert!(cases.len() >= 15);
     for (name, json, expect) in cases {
@@ -247,7 +262,7 @@ fn good_scenarios_parse_and_build() {
         "{}",
         r#"{"boundary": "fixed", "initial": {"standing_wave": {"amplitude": 0.01, "mode": 0.5}}}"#,
         r#"{"cells": 3, "boundary": "fixed", "particles": {"positions": [0.0, 0.5, 1.0], "masses": [0.3, 0.4, 0.3]}}"#,
-        r#"{"material": "neo_hookean", "shape": "linear", "initial": "rest", "controller": {"anything": 1}}"#,
+        r#"{"material": "neo_hookean", "shape": "linear", "initial": "rest", "controller": {"stability": {"safety": 0.8}, "sound_speed": null}}"#,
     ];
     for text in texts {
         let s = Scenario::from_json(text).unwrap_or_else(|e| panic!("{text}: {e}"));

@@ -17,6 +17,7 @@
 use super::filter::FilterPreset;
 use super::growth::GrowthConfig;
 use super::temporal_error::TemporalErrorConfig;
+use crate::stability::{SoundSpeedConfig, StabilityConfig, StabilityError};
 use serde::{Deserialize, Serialize};
 
 /// Everything the [`super::Controller`] can be told. `Default` gives the documented
@@ -64,6 +65,19 @@ pub struct ControllerConfig {
     pub temporal: TemporalErrorConfig,
     /// The growth monitor of the slow instability of moving particles.
     pub growth: GrowthConfig,
+    /// The [`crate::stability::Stability`] limit (eqs 56–58) of
+    /// [`super::Controller::standard`]; `null` leaves it out. Default: its own defaults
+    /// except `safety` 0.95 — measured on the standing wave (README "Adaptive controller"),
+    /// 0.9 keeps the mean step at 0.84 of the empirical critical step, 0.95 at 0.86–0.96, and
+    /// the growth monitor lowers the factor (×0.9 per detection) when moving particles make
+    /// it too bold.
+    pub stability: Option<StabilityConfig>,
+    /// The [`crate::stability::SoundSpeed`] limit of [`super::Controller::standard`]; `null`
+    /// leaves it out. Default `α = 1`: eq 49 with the particle speed added, `h/(c + |v|)`.
+    /// It is a *cap*, not the working limit — the true GIMP critical steps are 0.69–0.80
+    /// `h/c`, which the stability limit tracks — and binds only when particles move fast
+    /// compared with the wave speed (it keeps a particle from crossing a cell per step).
+    pub sound_speed: Option<SoundSpeedConfig>,
 }
 
 impl Default for ControllerConfig {
@@ -83,6 +97,11 @@ impl Default for ControllerConfig {
             order: 1,
             temporal: TemporalErrorConfig::default(),
             growth: GrowthConfig::default(),
+            stability: Some(StabilityConfig {
+                safety: 0.95,
+                ..StabilityConfig::default()
+            }),
+            sound_speed: Some(SoundSpeedConfig { alpha: 1.0 }),
         }
     }
 }
@@ -230,6 +249,31 @@ impl ControllerConfig {
         self.filter.validate()?;
         self.temporal.validate()?;
         self.growth.validate()?;
+        let stability_field = |e: StabilityError, prefix: &'static str| match e {
+            StabilityError::InvalidConfig {
+                field,
+                value,
+                reason,
+            } => ConfigError::OutOfRange {
+                field: match (prefix, field) {
+                    ("stability", "safety") => "stability.safety",
+                    ("stability", "tol") => "stability.tol",
+                    ("sound_speed", "alpha") => "sound_speed.alpha",
+                    (p, _) => p,
+                },
+                value,
+                expected: reason,
+            },
+            other => ConfigError::Parse {
+                message: format!("{prefix}: {other}"),
+            },
+        };
+        if let Some(c) = self.stability {
+            crate::stability::Stability::new(c).map_err(|e| stability_field(e, "stability"))?;
+        }
+        if let Some(c) = self.sound_speed {
+            crate::stability::SoundSpeed::new(c).map_err(|e| stability_field(e, "sound_speed"))?;
+        }
         Ok(())
     }
 }

@@ -235,6 +235,33 @@ impl Controller {
         Self::new(config, limits)
     }
 
+    /// The standard mpm-dt controller: the three limits of the paper — the
+    /// [`crate::stability::SoundSpeed`] cap (eq 49 with `|v|`), the
+    /// [`crate::stability::Stability`] limit (eqs 56–58, tracked λmax), the [`TemporalError`]
+    /// (eqs 20–30) — and the [`GrowthMonitor`], each as `config` enables and sets it.
+    /// Users add their own limits with [`Controller::with_default_limits`].
+    pub fn standard(config: ControllerConfig) -> Result<Self, ControllerError> {
+        config.validate()?;
+        let mut limits: Vec<Box<dyn StepLimit>> = Vec::new();
+        // Both configs were validated just above, so construction cannot fail; map anyway.
+        let invalid = |e: crate::stability::StabilityError| {
+            ControllerError::Config(ConfigError::Parse {
+                message: e.to_string(),
+            })
+        };
+        if let Some(c) = config.sound_speed {
+            limits.push(Box::new(
+                crate::stability::SoundSpeed::new(c).map_err(invalid)?,
+            ));
+        }
+        if let Some(c) = config.stability {
+            limits.push(Box::new(
+                crate::stability::Stability::new(c).map_err(invalid)?,
+            ));
+        }
+        Self::with_default_limits(config, limits)
+    }
+
     /// The configuration.
     pub fn config(&self) -> &ControllerConfig {
         &self.config
