@@ -10,11 +10,11 @@
 //!   sound-speed step `α h/(c_max + ‖v‖_∞)` (eq 49 generalised, [`SoundSpeed::dt`]),
 //!   re-evaluated on every committed state, the last step clamped to `t_end`. This is what
 //!   Uintah (0.3–0.4), NairnMPM (0.5), sparkl (0.5–0.9) and Karamelo (0.9) ship.
-//! - `mpm-dt`: the adaptive controller with the recommended limit set: [`Stability`]
-//!   (eq 56 tracked λmax, default safety 0.9), [`SoundSpeed`] with `α = 1` as a cap (never
-//!   binding on GIMP layouts at rest; it protects against particles crossing cells when
-//!   `‖v‖_∞` is large), then the temporal error limit and the growth monitor from the
-//!   controller config (the scenario's `controller` field, else the defaults).
+//! - `mpm-dt`: the standard controller, [`Controller::standard`] with the scenario's
+//!   `controller` configuration (else the defaults): the `SoundSpeed` cap with `α = 1`
+//!   (never binding on GIMP layouts at rest; it protects against particles crossing cells
+//!   when `‖v‖_∞` is large), the `Stability` limit (eq 56 tracked λmax, the config's safety,
+//!   0.95 by default), the temporal error limit and the growth monitor.
 //!   `--refresh-every-step` makes the stability limit recompute λmax at every step
 //!   (`Refresh::every_step`) instead of its default refresh policy.
 //!
@@ -36,11 +36,10 @@
 //! Human table on stdout by default; `--json` prints one JSON document on stdout instead.
 //! Logs go to stderr (`RUST_LOG` filters them, default `warn`).
 
-use mpm_dt::controller::{Controller, ControllerConfig};
-use mpm_dt::limit::StepLimit;
+use mpm_dt::controller::Controller;
 use mpm_dt::mpm::ReferenceStepper;
 use mpm_dt::scenario::{MaterialKind, Scenario};
-use mpm_dt::stability::{Refresh, SoundSpeed, SoundSpeedConfig, Stability, StabilityConfig};
+use mpm_dt::stability::{Refresh, SoundSpeed, SoundSpeedConfig};
 use mpm_dt::Stepper;
 use serde::Serialize;
 use std::process::ExitCode;
@@ -204,30 +203,19 @@ fn run_fixed(
     Ok(reference.finish(format!("alpha={alpha}"), &stepper, 0, failure, wall))
 }
 
-/// The recommended limit set (see the module docs).
-fn mpm_dt_limits(refresh_every_step: bool) -> Result<Vec<Box<dyn StepLimit>>, String> {
-    let mut config = StabilityConfig::default();
-    if refresh_every_step {
-        config.refresh = Refresh::every_step();
-    }
-    let stability = Stability::new(config).map_err(|e| e.to_string())?;
-    let cap = SoundSpeed::new(SoundSpeedConfig { alpha: 1.0 }).map_err(|e| e.to_string())?;
-    Ok(vec![Box::new(stability), Box::new(cap)])
-}
-
 /// mpm-dt's controller.
 fn run_controller(
     scenario: &Scenario,
     reference: &Reference<'_>,
     refresh_every_step: bool,
 ) -> Result<PolicyResult, String> {
-    let config = match &scenario.controller {
-        Some(v) => ControllerConfig::from_value(v.clone()).map_err(|e| e.to_string())?,
-        None => ControllerConfig::default(),
-    };
-    let mut controller =
-        Controller::with_default_limits(config, mpm_dt_limits(refresh_every_step)?)
-            .map_err(|e| e.to_string())?;
+    let mut config = scenario.controller_config().map_err(|e| e.to_string())?;
+    if refresh_every_step {
+        if let Some(stability) = config.stability.as_mut() {
+            stability.refresh = Refresh::every_step();
+        }
+    }
+    let mut controller = Controller::standard(config).map_err(|e| e.to_string())?;
     let mut stepper = scenario.build().map_err(|e| e.to_string())?;
     let t_end = scenario.t_end;
     let start = Instant::now();
