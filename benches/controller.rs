@@ -1,24 +1,50 @@
-//! Cost of the controller per accepted step relative to a plain step of the reference solver
-//! (`try_step` + `accept`): standing wave, GIMP, 2 particles per cell, periodic, 10³ and 10⁴
-//! particles. The controller runs the stability limit (tracked λmax of eq 56, eq 58 check),
-//! the temporal error limit and the growth monitor; `controller_sound_speed_only` replaces the
-//! stability limit by the cheap sound-speed limit to isolate the controller's own cost, and
-//! `plain_with_views` adds to the plain step the construction of the views the limits read.
-//! Compare the entries of one size within one run.
+//! The controller's overhead: one accepted step with every limit on versus the bare
+//! reference step, on the same stepper in the same run.
+//!
+//! ```text
+//! cargo bench --bench controller -- --warm-up-time 1 --measurement-time 3
+//! ```
+//!
+//! Set-up: standing wave (amplitude 0.01 c), GIMP, 2 particles per cell, periodic, at
+//! 10³ … 10⁶ particles. The controller is `Controller::standard` with the default
+//! configuration (as `examples/compare.rs` runs it): `SoundSpeed` with `α = 1` as a cap,
+//! `Stability` (eq 56, safety 0.95, default `Refresh`), the temporal error limit and the
+//! growth monitor. The per-limit sub-benches use `Stability` at its own default safety 0.9
+//! (the safety does not change its cost).
+//!
+//! Groups:
+//! - `controller_step/{bare,controlled}/N`: `try_step + accept` at the controller's last
+//!   step versus `Controller::step` (every limit's `propose`, the trial, every limit's
+//!   `judge`, the accept and the limits' `accepted` hooks). Throughput is in particles. The
+//!   overhead ratio is `controlled / bare`. `bare_with_view` adds building the trial's
+//!   `View` (lazily computed `S`, `D`, tangent modulus, density, node activity), which any
+//!   limit that reads the trial forces.
+//! - `limit_propose/NAME` and `limit_judge/NAME` at 10⁵ particles: each limit's share of
+//!   the overhead (propose alternating between two states one step apart, judge of one trial
+//!   against the committed state). `stability_every_step` is the stability limit with
+//!   `Refresh::every_step()` (a Lanczos update at every proposal), for comparison with the
+//!   default refresh policy. `propose` of the default `stability` alternates between two
+//!   states within its thresholds, so it measures the cached path plus the staleness check.
+//!
+//! The λmax tracker's own cost (operator build, one application, warm update) is in
+//! `benches/stability.rs`; the estimators' in `benches/estimators.rs`.
+#![allow(missing_docs)]
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use mpm_dt::controller::{Controller, ControllerConfig};
-use mpm_dt::limit::StepLimit;
+use mpm_dt::controller::{
+    Controller, ControllerConfig, GrowthConfig, GrowthMonitor, TemporalError, TemporalErrorConfig,
+};
 use mpm_dt::mpm::{Material, ReferenceStepper};
 use mpm_dt::problems::StandingWave;
-use mpm_dt::stability::{SoundSpeed, SoundSpeedConfig, Stability, StabilityConfig};
-use mpm_dt::{Boundary, Grid, Shape, Stepper};
+use mpm_dt::stability::{Refresh, SoundSpeed, SoundSpeedConfig, Stability, StabilityConfig};
+use mpm_dt::{Boundary, Grid, Shape, StepLimit, Stepper};
 use std::hint::black_box;
+use std::time::Duration;
 
 fn stepper(particles: usize) -> ReferenceStepper {
     let ppc = 2;
     let grid = Grid::new(Boundary::Periodic, particles / ppc, 1.0);
-    let wave = StandingWave::new(1e-3, 1.0, 1.0, 1.0, 1.0);
+    let wave = StandingWave::new(1e-2, 1.0, 1.0, 1.0, 1.0);
     let init = wave.uniform_particles(&grid, ppc);
     let material = Material::LinearElastic {
         youngs_modulus: 1.0,
@@ -29,86 +55,175 @@ fn stepper(particles: usize) -> ReferenceStepper {
     }
 }
 
+fn stability() -> Stability {
+    match Stability::new(StabilityConfig::default()) {
+        Ok(l) => l,
+        Err(e) => panic!("bench set-up failed: {e}"),
+    }
+}
+
+fn sound_speed_cap() -> SoundSpeed {
+    match SoundSpeed::new(SoundSpeedConfig { alpha: 1.0 }) {
+        Ok(l) => l,
+        Err(e) => panic!("bench set-up failed: {e}"),
+    }
+}
+
+/// The standard controller with its default configuration (what `examples/compare.rs` runs).
 fn controller() -> Controller {
-    let stability = match Stability::new(StabilityConfig {
-        safety: 0.95,
-        ..StabilityConfig::default()
-    }) {
-        Ok(s) => s,
-        Err(e) => panic!("{e}"),
-    };
-    let limits: Vec<Box<dyn StepLimit>> = vec![Box::new(stability)];
-    match Controller::with_default_limits(ControllerConfig::default(), limits) {
+    match Controller::standard(ControllerConfig::default()) {
         Ok(c) => c,
-        Err(e) => panic!("{e}"),
+        Err(e) => panic!("bench set-up failed: {e}"),
     }
 }
 
-/// The controller's own limits only (temporal error, growth monitor) with the cheap
-/// sound-speed limit setting dt: isolates the controller's cost from the stability limit's.
-fn light_controller() -> Controller {
-    let sound = match SoundSpeed::new(SoundSpeedConfig { alpha: 0.5 }) {
-        Ok(s) => s,
-        Err(e) => panic!("{e}"),
-    };
-    let limits: Vec<Box<dyn StepLimit>> = vec![Box::new(sound)];
-    match Controller::with_default_limits(ControllerConfig::default(), limits) {
-        Ok(c) => c,
-        Err(e) => panic!("{e}"),
-    }
-}
-
-fn bench_controller(c: &mut Criterion) {
-    let mut group = c.benchmark_group("controller_overhead");
-    for particles in [1_000usize, 10_000] {
-        group.throughput(Throughput::Elements(particles as u64));
-        let mut s = stepper(particles);
-        let dt = 0.6 * s.grid().h;
-        group.bench_function(BenchmarkId::new("plain", particles), |b| {
-            b.iter(|| {
-                if let Err(e) = s.try_step(black_box(dt)) {
-                    panic!("step failed: {e}");
-                }
-                let _ = s.accept();
-            })
-        });
-        // A plain step that also builds both views (weights S, D of the trial state): the
-        // part of the controller's cost that is the solver's observer data.
-        let mut s = stepper(particles);
-        group.bench_function(BenchmarkId::new("plain_with_views", particles), |b| {
-            b.iter(|| {
-                if let Err(e) = s.try_step(black_box(dt)) {
-                    panic!("step failed: {e}");
-                }
-                if let Some(v) = s.trial_view() {
-                    black_box(v.weights.n_particles());
-                }
-                black_box(s.view().weights.n_particles());
-                let _ = s.accept();
-            })
-        });
+fn bench_overhead(c: &mut Criterion) {
+    let mut group = c.benchmark_group("controller_step");
+    for particles in [1_000usize, 10_000, 100_000, 1_000_000] {
+        if particles >= 100_000 {
+            group.sample_size(10);
+        }
         let mut s = stepper(particles);
         let mut ctl = controller();
-        group.bench_function(BenchmarkId::new("controller", particles), |b| {
+        // Warm up the controller (filter history, λmax tracker) on a few real steps.
+        for _ in 0..5 {
+            if let Err(e) = ctl.step(&mut s, f64::INFINITY) {
+                panic!("controller failed: {e}");
+            }
+        }
+        group.throughput(Throughput::Elements(particles as u64));
+        group.bench_function(BenchmarkId::new("controlled", particles), |b| {
             b.iter(|| match ctl.step(&mut s, f64::INFINITY) {
-                Ok(d) => black_box(d.len()),
+                Ok(d) => black_box(d),
                 Err(e) => panic!("controller failed: {e}"),
             })
         });
-        let mut s = stepper(particles);
-        let mut ctl = light_controller();
-        group.bench_function(
-            BenchmarkId::new("controller_sound_speed_only", particles),
-            |b| {
-                b.iter(|| match ctl.step(&mut s, f64::INFINITY) {
-                    Ok(d) => black_box(d.len()),
-                    Err(e) => panic!("controller failed: {e}"),
-                })
-            },
-        );
+        let dt = ctl.state().dt_prev.unwrap_or(0.5 * s.grid().h);
+        group.bench_function(BenchmarkId::new("bare", particles), |b| {
+            b.iter(|| {
+                if let Err(e) = s.try_step(black_box(dt)).and_then(|()| s.accept()) {
+                    panic!("step failed: {e}");
+                }
+            })
+        });
+        // The bare step plus building the trial's `View` (the lazily computed S, D, tangent
+        // modulus, density and node activity that every limit reading a view forces).
+        group.bench_function(BenchmarkId::new("bare_with_view", particles), |b| {
+            b.iter(|| {
+                if let Err(e) = s.try_step(black_box(dt)) {
+                    panic!("step failed: {e}");
+                }
+                black_box(s.trial_view().map(|v| v.weights.s_of(0).len()));
+                if let Err(e) = s.accept() {
+                    panic!("accept failed: {e}");
+                }
+            })
+        });
     }
     group.finish();
 }
 
-criterion_group!(benches, bench_controller);
+/// Every limit of the controlled run, labelled, plus the stability limit recomputing λmax at
+/// every step (`Refresh::every_step`) to show what the refresh policy saves.
+fn all_limits() -> Vec<(&'static str, Box<dyn StepLimit>)> {
+    let temporal = match TemporalError::new(TemporalErrorConfig::default()) {
+        Ok(l) => l,
+        Err(e) => panic!("bench set-up failed: {e}"),
+    };
+    let growth = match GrowthMonitor::new(GrowthConfig::default()) {
+        Ok(l) => l,
+        Err(e) => panic!("bench set-up failed: {e}"),
+    };
+    let every_step = match Stability::new(StabilityConfig {
+        refresh: Refresh::every_step(),
+        ..StabilityConfig::default()
+    }) {
+        Ok(l) => l,
+        Err(e) => panic!("bench set-up failed: {e}"),
+    };
+    vec![
+        ("stability", Box::new(stability())),
+        ("stability_every_step", Box::new(every_step)),
+        ("sound_speed", Box::new(sound_speed_cap())),
+        ("temporal_error", Box::new(temporal)),
+        ("growth", Box::new(growth)),
+    ]
+}
+
+fn bench_limits(c: &mut Criterion) {
+    let particles = 100_000;
+    let mut s = stepper(particles);
+    // Advance a few steps with the controller so the state is not the initial one.
+    let mut ctl = controller();
+    for _ in 0..5 {
+        if let Err(e) = ctl.step(&mut s, f64::INFINITY) {
+            panic!("controller failed: {e}");
+        }
+    }
+    let dt = ctl.state().dt_prev.unwrap_or(0.5 * s.grid().h);
+    let mut limits = all_limits();
+    let mut group = c.benchmark_group("limit_propose");
+    group.sample_size(20);
+    // Propose alternates between the committed state and the trial one step ahead, so the
+    // λmax tracker does a warm update on a changed state each time, as in a run.
+    if let Err(e) = s.try_step(dt) {
+        panic!("step failed: {e}");
+    }
+    for (name, limit) in limits.iter_mut() {
+        let name = *name;
+        let before = s.view();
+        let Some(after) = s.trial_view() else {
+            panic!("no trial after try_step");
+        };
+        let mut flip = false;
+        group.bench_function(name, |b| {
+            b.iter(|| {
+                flip = !flip;
+                let v = if flip { &after } else { &before };
+                match limit.propose(v) {
+                    Ok(p) => black_box(p),
+                    Err(e) => panic!("propose failed: {e}"),
+                }
+            })
+        });
+    }
+    group.finish();
+    let mut group = c.benchmark_group("limit_judge");
+    group.sample_size(20);
+    for (name, limit) in limits.iter_mut() {
+        let name = *name;
+        let before = s.view();
+        let Some(after) = s.trial_view() else {
+            panic!("no trial after try_step");
+        };
+        if let Err(e) = limit.propose(&before) {
+            panic!("propose failed: {e}");
+        }
+        // One accepted step of history (the temporal error limit's steady-state path; without
+        // it, it takes its first-step path).
+        limit.accepted(&before, &after, dt);
+        if let Err(e) = limit.propose(&before) {
+            panic!("propose failed: {e}");
+        }
+        group.bench_function(name, |b| {
+            b.iter(|| match limit.judge(&before, &after, dt) {
+                Ok(j) => black_box(j),
+                Err(e) => panic!("judge failed: {e}"),
+            })
+        });
+    }
+    group.finish();
+}
+
+fn config() -> Criterion {
+    Criterion::default()
+        .warm_up_time(Duration::from_secs(1))
+        .measurement_time(Duration::from_secs(3))
+}
+
+criterion_group! {
+    name = benches;
+    config = config();
+    targets = bench_overhead, bench_limits
+}
 criterion_main!(benches);

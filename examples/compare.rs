@@ -1,0 +1,421 @@
+//! mpm-dt against the rules of thumb: one scenario, the same reference stepper, every policy
+//! in one run.
+//!
+//! ```text
+//! cargo run --release --example compare -- --scenario FILE [--json]
+//! ```
+//!
+//! Policies:
+//! - `alpha=0.3`, `alpha=0.4`, `alpha=0.5`, `alpha=0.9`: a fixed multiplier `α` of the
+//!   sound-speed step `α h/(c_max + ‖v‖_∞)` (eq 49 generalised, [`SoundSpeed::dt`]),
+//!   re-evaluated on every committed state, the last step clamped to `t_end`. This is what
+//!   Uintah (0.3–0.4), NairnMPM (0.5), sparkl (0.5–0.9) and Karamelo (0.9) ship.
+//! - `mpm-dt`: the standard controller, [`Controller::standard`] with the scenario's
+//!   `controller` configuration (else the defaults): the `SoundSpeed` cap with `α = 1`
+//!   (never binding on GIMP layouts at rest; it protects against particles crossing cells
+//!   when `‖v‖_∞` is large), the `Stability` limit (eq 56 tracked λmax, the config's safety,
+//!   0.95 by default), the temporal error limit and the growth monitor.
+//!   `--refresh-every-step` makes the stability limit recompute λmax at every step
+//!   (`Refresh::every_step`) instead of its default refresh policy.
+//!
+//! A run *blows up* when the stepper returns an error, any particle value is not finite, the
+//! total energy exceeds 10× its initial value, or a deformation gradient `F ≤ 0` — the
+//! criteria of the stability module's empirical protocol ([`mpm_dt::stability::Protocol`]).
+//! For `mpm-dt` a controller error (e.g. too many rejections) also counts as a blow-up.
+//!
+//! Reported per policy: `policy, steps, rejected, blew_up, final_time, velocity_error_linf,
+//! energy_drift, wall_seconds, dt_mean`:
+//! - `velocity_error_linf = max_p |v_p − v_exact(X_p, t_final)|` (the ∞-norm over particles,
+//!   `X_p` the particle's initial position) against the scenario's standing-wave solution;
+//!   `null` for the neo-Hookean material or a scenario at rest. The exact solution is that of
+//!   linear elasticity at small amplitude: for a large amplitude (particles crossing cells) it
+//!   is only a reference, not the truth.
+//! - `energy_drift = (E_final − E_0)/E_0`, `E = kinetic + strain energy` (relative).
+//! - `dt_mean = final_time / steps` (accepted steps).
+//!
+//! Human table on stdout by default; `--json` prints one JSON document on stdout instead.
+//! Logs go to stderr (`RUST_LOG` filters them, default `warn`).
+
+use mpm_dt::controller::Controller;
+use mpm_dt::mpm::ReferenceStepper;
+use mpm_dt::scenario::{MaterialKind, Scenario};
+use mpm_dt::stability::{Refresh, SoundSpeed, SoundSpeedConfig};
+use mpm_dt::Stepper;
+use serde::Serialize;
+use std::process::ExitCode;
+use std::time::Instant;
+
+/// Energy growth factor that counts as a blow-up (the empirical protocol's default).
+const ENERGY_GROWTH: f64 = 10.0;
+
+/// The fixed multipliers compared.
+const ALPHAS: [f64; 4] = [0.3, 0.4, 0.5, 0.9];
+
+const USAGE: &str = "usage: compare --scenario FILE [--json] [--refresh-every-step]";
+
+/// Command-line options.
+struct Args {
+    scenario: String,
+    json: bool,
+    /// Recompute λmax at every step (`Refresh::every_step`) instead of the default policy.
+    refresh_every_step: bool,
+}
+
+fn parse_args() -> Result<Args, String> {
+    let mut scenario = None;
+    let mut json = false;
+    let mut refresh_every_step = false;
+    let mut it = std::env::args().skip(1);
+    while let Some(a) = it.next() {
+        match a.as_str() {
+            "--scenario" => scenario = Some(it.next().ok_or("--scenario needs a value")?),
+            "--json" => json = true,
+            "--refresh-every-step" => refresh_every_step = true,
+            "-h" | "--help" => return Err(USAGE.into()),
+            other => return Err(format!("unknown argument {other}\n{USAGE}")),
+        }
+    }
+    Ok(Args {
+        scenario: scenario.ok_or(format!("--scenario is required\n{USAGE}"))?,
+        json,
+        refresh_every_step,
+    })
+}
+
+/// One policy's result.
+#[derive(Debug, Serialize)]
+struct PolicyResult {
+    policy: String,
+    steps: u64,
+    rejected: u64,
+    blew_up: bool,
+    /// Why the run blew up, if it did.
+    failure: Option<String>,
+    final_time: f64,
+    velocity_error_linf: Option<f64>,
+    energy_drift: Option<f64>,
+    wall_seconds: f64,
+    dt_mean: Option<f64>,
+}
+
+/// The blow-up test on a committed state (see the module docs).
+fn blow_up(stepper: &ReferenceStepper, e0: f64) -> Option<String> {
+    let view = stepper.view();
+    for (name, field) in [("x", view.x), ("v", view.v), ("sigma", view.sigma)] {
+        if let Some(p) = field.iter().position(|v| !v.is_finite()) {
+            return Some(format!("{name} of particle {p} is not finite"));
+        }
+    }
+    if let Some(p) = view.f.iter().position(|&f| !(f.is_finite() && f > 0.0)) {
+        return Some(format!("F of particle {p} is {} (not positive)", view.f[p]));
+    }
+    let e = stepper.total_energy();
+    if !e.is_finite() || e > ENERGY_GROWTH * e0 {
+        return Some(format!(
+            "energy {e:.3e} exceeds {ENERGY_GROWTH}× its start {e0:.3e}"
+        ));
+    }
+    None
+}
+
+/// Fills the error columns from the final state.
+struct Reference<'a> {
+    scenario: &'a Scenario,
+    x0: Vec<f64>,
+    e0: f64,
+}
+
+impl Reference<'_> {
+    fn finish(
+        &self,
+        policy: String,
+        stepper: &ReferenceStepper,
+        rejected: u64,
+        failure: Option<String>,
+        wall_seconds: f64,
+    ) -> PolicyResult {
+        let t = stepper.time();
+        let steps = stepper.step_count();
+        let exact = match self.scenario.material {
+            MaterialKind::LinearElastic => self.scenario.standing_wave(),
+            MaterialKind::NeoHookean => None,
+        };
+        let velocity_error_linf = exact.and_then(|w| {
+            let err = self
+                .x0
+                .iter()
+                .zip(stepper.view().v)
+                .map(|(&x, &v)| (v - w.velocity(x, t)).abs())
+                .fold(0.0, f64::max);
+            err.is_finite().then_some(err)
+        });
+        let drift = (stepper.total_energy() - self.e0) / self.e0;
+        PolicyResult {
+            policy,
+            steps,
+            rejected,
+            blew_up: failure.is_some(),
+            failure,
+            final_time: t,
+            velocity_error_linf,
+            energy_drift: drift.is_finite().then_some(drift),
+            wall_seconds,
+            dt_mean: (steps > 0).then(|| t / steps as f64),
+        }
+    }
+}
+
+/// Fixed multiplier `α` of the sound-speed step, re-evaluated every step.
+fn run_fixed(
+    scenario: &Scenario,
+    reference: &Reference<'_>,
+    alpha: f64,
+) -> Result<PolicyResult, String> {
+    let limit = SoundSpeed::new(SoundSpeedConfig { alpha }).map_err(|e| e.to_string())?;
+    let mut stepper = scenario.build().map_err(|e| e.to_string())?;
+    let t_end = scenario.t_end;
+    let start = Instant::now();
+    let mut failure = None;
+    while stepper.time() < t_end {
+        let dt = match limit.dt(&stepper.view()) {
+            Ok(dt) => dt,
+            Err(e) => {
+                failure = Some(e.to_string());
+                break;
+            }
+        };
+        let remaining = t_end - stepper.time();
+        // Clamp the last step; a remainder below 1e-12 of t_end is round-off, not a step.
+        if remaining <= 1e-12 * t_end {
+            break;
+        }
+        let dt = dt.min(remaining);
+        if let Err(e) = stepper.try_step(dt).and_then(|()| stepper.accept()) {
+            failure = Some(e.to_string());
+            break;
+        }
+        if let Some(why) = blow_up(&stepper, reference.e0) {
+            failure = Some(why);
+            break;
+        }
+    }
+    let wall = start.elapsed().as_secs_f64();
+    Ok(reference.finish(format!("alpha={alpha}"), &stepper, 0, failure, wall))
+}
+
+/// mpm-dt's controller.
+fn run_controller(
+    scenario: &Scenario,
+    reference: &Reference<'_>,
+    refresh_every_step: bool,
+) -> Result<PolicyResult, String> {
+    let mut config = scenario.controller_config().map_err(|e| e.to_string())?;
+    if refresh_every_step {
+        if let Some(stability) = config.stability.as_mut() {
+            stability.refresh = Refresh::every_step();
+        }
+    }
+    let mut controller = Controller::standard(config).map_err(|e| e.to_string())?;
+    let mut stepper = scenario.build().map_err(|e| e.to_string())?;
+    let t_end = scenario.t_end;
+    let start = Instant::now();
+    let mut failure = None;
+    while stepper.time() < t_end {
+        match controller.step(&mut stepper, t_end) {
+            Ok(decisions) => {
+                if decisions.is_empty() {
+                    break; // t_end reached within round-off
+                }
+            }
+            Err(e) => {
+                failure = Some(e.to_string());
+                break;
+            }
+        }
+        if let Some(why) = blow_up(&stepper, reference.e0) {
+            failure = Some(why);
+            break;
+        }
+    }
+    let wall = start.elapsed().as_secs_f64();
+    let stats = controller.stats();
+    tracing::info!(binding = ?stats.binding, rejected = ?stats.rejected_by_cause,
+        growth_events = stats.growth_events, "mpm-dt run");
+    let rejected = stats.rejected;
+    Ok(reference.finish("mpm-dt".into(), &stepper, rejected, failure, wall))
+}
+
+/// Step ratio `steps(policy)/steps(mpm-dt)` with the goal it is held to.
+#[derive(Debug, Serialize)]
+struct Ratio {
+    against: String,
+    /// Whether the fixed policy stayed stable (the goal only applies then).
+    stable: bool,
+    steps_ratio: Option<f64>,
+    goal: f64,
+    /// mpm-dt's final velocity error divided by the policy's (≤ 1 is "equal or better").
+    error_ratio: Option<f64>,
+}
+
+fn ratios(results: &[PolicyResult]) -> Vec<Ratio> {
+    let Some(ours) = results.iter().find(|r| r.policy == "mpm-dt") else {
+        return Vec::new();
+    };
+    [(0.3, 2.1), (0.4, 1.6)]
+        .iter()
+        .filter_map(|&(alpha, goal)| {
+            let name = format!("alpha={alpha}");
+            let r = results.iter().find(|r| r.policy == name)?;
+            Some(Ratio {
+                against: name,
+                stable: !r.blew_up,
+                steps_ratio: (!ours.blew_up && ours.steps > 0)
+                    .then(|| r.steps as f64 / ours.steps as f64),
+                goal,
+                error_ratio: match (ours.velocity_error_linf, r.velocity_error_linf) {
+                    (Some(a), Some(b)) if b > 0.0 => Some(a / b),
+                    _ => None,
+                },
+            })
+        })
+        .collect()
+}
+
+fn opt(v: Option<f64>, width: usize) -> String {
+    match v {
+        Some(x) => format!("{x:>width$.3e}"),
+        None => format!("{:>width$}", "null"),
+    }
+}
+
+fn print_table(path: &str, results: &[PolicyResult], ratios: &[Ratio], large_amplitude: bool) {
+    println!("scenario {path}");
+    println!(
+        "{:<10} {:>7} {:>8} {:>7} {:>10} {:>12} {:>12} {:>9} {:>10}",
+        "policy",
+        "steps",
+        "rejected",
+        "blew_up",
+        "final_time",
+        "v_err_linf",
+        "energy_drift",
+        "wall_s",
+        "dt_mean"
+    );
+    for r in results {
+        println!(
+            "{:<10} {:>7} {:>8} {:>7} {:>10.4} {} {} {:>9.3} {}",
+            r.policy,
+            r.steps,
+            r.rejected,
+            if r.blew_up { "YES" } else { "no" },
+            r.final_time,
+            opt(r.velocity_error_linf, 12),
+            opt(r.energy_drift, 12),
+            r.wall_seconds,
+            opt(r.dt_mean, 10),
+        );
+        if let Some(f) = &r.failure {
+            println!("    {}: {f}", r.policy);
+        }
+    }
+    for q in ratios {
+        let verdict = match (q.stable, q.steps_ratio) {
+            (false, _) => "fixed policy blew up: goal does not apply".to_string(),
+            (true, None) => "mpm-dt blew up".to_string(),
+            (true, Some(s)) => {
+                let err_ok = q.error_ratio.is_none_or(|e| e <= 1.0);
+                format!(
+                    "{:.2}× fewer steps (goal ≥ {}), error ratio {} → {}",
+                    s,
+                    q.goal,
+                    q.error_ratio.map_or("null".into(), |e| format!("{e:.3}")),
+                    if s >= q.goal && err_ok {
+                        "met"
+                    } else {
+                        "MISSED"
+                    }
+                )
+            }
+        };
+        println!("mpm-dt vs {}: {verdict}", q.against);
+    }
+    if large_amplitude {
+        println!("note: large amplitude — the linear standing wave is a reference, not the exact solution");
+    }
+}
+
+fn main() -> ExitCode {
+    tracing_subscriber::fmt()
+        .with_writer(std::io::stderr)
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_default_env()
+                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn")),
+        )
+        .init();
+    let args = match parse_args() {
+        Ok(a) => a,
+        Err(msg) => {
+            eprintln!("{msg}");
+            return ExitCode::from(2);
+        }
+    };
+    let scenario = match Scenario::from_file(&args.scenario) {
+        Ok(s) => s,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(1);
+        }
+    };
+    let (x0, e0) = match scenario.build() {
+        Ok(s) => (s.view().x.to_vec(), s.total_energy()),
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(1);
+        }
+    };
+    let reference = Reference {
+        scenario: &scenario,
+        x0,
+        e0,
+    };
+    let mut results = Vec::new();
+    for alpha in ALPHAS {
+        match run_fixed(&scenario, &reference, alpha) {
+            Ok(r) => results.push(r),
+            Err(e) => {
+                eprintln!("error: alpha={alpha}: {e}");
+                return ExitCode::from(1);
+            }
+        }
+    }
+    match run_controller(&scenario, &reference, args.refresh_every_step) {
+        Ok(r) => results.push(r),
+        Err(e) => {
+            eprintln!("error: mpm-dt: {e}");
+            return ExitCode::from(1);
+        }
+    }
+    let ratios = ratios(&results);
+    // Displacement amplitude `A/κ` (velocity amplitude `A c`, `ω = c κ`) above half a cell:
+    // particles cross cells and the linear small-amplitude solution is only a reference.
+    let large_amplitude = scenario.standing_wave().is_some_and(|w| {
+        let displacement = w.amplitude / w.wavenumber();
+        displacement > 0.5 * scenario.length / scenario.cells as f64
+    });
+    if args.json {
+        let doc = serde_json::json!({
+            "scenario": args.scenario,
+            "t_end": scenario.t_end,
+            "particles": reference.x0.len(),
+            "exact_solution_is_reference_only": large_amplitude,
+            "policies": results,
+            "ratios": ratios,
+            "refresh_every_step": args.refresh_every_step,
+        });
+        println!("{doc}");
+    } else {
+        print_table(&args.scenario, &results, &ratios, large_amplitude);
+    }
+    ExitCode::SUCCESS
+}
