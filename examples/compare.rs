@@ -15,8 +15,8 @@
 //!   (never binding on GIMP layouts at rest; it protects against particles crossing cells
 //!   when `‖v‖_∞` is large), the `Stability` limit (eq 56 tracked λmax, the config's safety,
 //!   0.95 by default), the temporal error limit and the growth monitor.
-//!   `--refresh-every-step` makes the stability limit recompute λmax at every step
-//!   (`Refresh::every_step`) instead of its default refresh policy.
+//!   `--refresh-cached` switches the stability limit to the opt-in cached λmax refresh
+//!   (`Refresh::cached`) instead of its default update at every step.
 //!
 //! A run *blows up* when the stepper returns an error, any particle value is not finite, the
 //! total energy exceeds 10× its initial value, or a deformation gradient `F ≤ 0` — the
@@ -51,26 +51,26 @@ const ENERGY_GROWTH: f64 = 10.0;
 /// The fixed multipliers compared.
 const ALPHAS: [f64; 4] = [0.3, 0.4, 0.5, 0.9];
 
-const USAGE: &str = "usage: compare --scenario FILE [--json] [--refresh-every-step]";
+const USAGE: &str = "usage: compare --scenario FILE [--json] [--refresh-cached]";
 
 /// Command-line options.
 struct Args {
     scenario: String,
     json: bool,
     /// Recompute λmax at every step (`Refresh::every_step`) instead of the default policy.
-    refresh_every_step: bool,
+    refresh_cached: bool,
 }
 
 fn parse_args() -> Result<Args, String> {
     let mut scenario = None;
     let mut json = false;
-    let mut refresh_every_step = false;
+    let mut refresh_cached = false;
     let mut it = std::env::args().skip(1);
     while let Some(a) = it.next() {
         match a.as_str() {
             "--scenario" => scenario = Some(it.next().ok_or("--scenario needs a value")?),
             "--json" => json = true,
-            "--refresh-every-step" => refresh_every_step = true,
+            "--refresh-cached" => refresh_cached = true,
             "-h" | "--help" => return Err(USAGE.into()),
             other => return Err(format!("unknown argument {other}\n{USAGE}")),
         }
@@ -78,7 +78,7 @@ fn parse_args() -> Result<Args, String> {
     Ok(Args {
         scenario: scenario.ok_or(format!("--scenario is required\n{USAGE}"))?,
         json,
-        refresh_every_step,
+        refresh_cached,
     })
 }
 
@@ -207,12 +207,12 @@ fn run_fixed(
 fn run_controller(
     scenario: &Scenario,
     reference: &Reference<'_>,
-    refresh_every_step: bool,
+    refresh_cached: bool,
 ) -> Result<PolicyResult, String> {
     let mut config = scenario.controller_config().map_err(|e| e.to_string())?;
-    if refresh_every_step {
+    if refresh_cached {
         if let Some(stability) = config.stability.as_mut() {
-            stability.refresh = Refresh::every_step();
+            stability.refresh = Refresh::cached();
         }
     }
     let mut controller = Controller::standard(config).map_err(|e| e.to_string())?;
@@ -389,7 +389,7 @@ fn main() -> ExitCode {
             }
         }
     }
-    match run_controller(&scenario, &reference, args.refresh_every_step) {
+    match run_controller(&scenario, &reference, args.refresh_cached) {
         Ok(r) => results.push(r),
         Err(e) => {
             eprintln!("error: mpm-dt: {e}");
@@ -411,7 +411,7 @@ fn main() -> ExitCode {
             "exact_solution_is_reference_only": large_amplitude,
             "policies": results,
             "ratios": ratios,
-            "refresh_every_step": args.refresh_every_step,
+            "refresh_cached": args.refresh_cached,
         });
         println!("{doc}");
     } else {

@@ -179,7 +179,7 @@ fn checkpoint_and_scale_safety() {
     assert!((s.config().alpha - 0.25).abs() < 1e-15);
 }
 
-/// The default [`mpm_dt::stability::Refresh`] policy serves most proposals from the cached
+/// The opt-in cached [`mpm_dt::stability::Refresh`] policy serves most proposals from the cached
 /// λmax, yet follows a linear-hat layout whose critical step collapses as particles slide into
 /// a small-mass configuration: every proposal stays below the exact eq 56 step of its own
 /// layout and within a few per cent of what an update at every step would propose.
@@ -189,7 +189,11 @@ fn cached_lambda_max_follows_a_collapsing_layout() {
     let start = uniform(cells, 1.0, 2);
     let end = small_mass(cells, 1.0, 11);
     let mut fx = Fixture::new(periodic(cells, 1.0), Shape::Linear, start.clone(), 1.0, 1.0);
-    let mut cached = Stability::new(StabilityConfig::default()).unwrap();
+    let mut cached = Stability::new(StabilityConfig {
+        refresh: mpm_dt::stability::Refresh::cached(),
+        ..StabilityConfig::default()
+    })
+    .unwrap();
     let mut every = Stability::new(StabilityConfig {
         refresh: mpm_dt::stability::Refresh::every_step(),
         ..StabilityConfig::default()
