@@ -19,7 +19,26 @@
 //! * [`estimators`] — the spatial error estimators of Section 4 (eqs 31–44).
 //! * [`stability`] — the sound-speed limit (eq 49), the eq 56 amplification operator and
 //!   its tracked λmax, the eq 58 bound, and exact critical steps for verification.
-//! * [`controller`] — the adaptive controller combining the limits.
+//! * [`controller`] — the adaptive controller combining the limits
+//!   ([`controller::Controller::standard`] builds the paper's three plus a growth monitor).
+//!
+//! ## In five lines
+//!
+//! ```
+//! use mpm_dt::controller::{Controller, ControllerConfig};
+//! use mpm_dt::scenario::Scenario;
+//! use mpm_dt::Stepper;
+//!
+//! let scenario = Scenario::from_json(r#"{"cells": 16, "t_end": 0.25}"#)?;
+//! let mut solver = scenario.build()?; // any `Stepper` works: `&mut dyn Stepper`
+//! // Sound-speed cap (eq 49), stability (eqs 56–58), temporal error (eqs 20–30), growth.
+//! let mut controller = Controller::standard(ControllerConfig::default())?;
+//! controller.run_until(&mut solver, scenario.t_end, &mut |decision| {
+//!     assert!(decision.dt > 0.0); // every attempt, accepted or not, with its reasons
+//! })?;
+//! assert!((solver.time() - 0.25).abs() < 1e-12);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 //!
 //! The library logs through `tracing` and never installs a subscriber.
 
