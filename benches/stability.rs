@@ -7,6 +7,11 @@
 //! * `operator_build` — building the eq 56 operator from the view (`O(n)`);
 //! * `operator_apply` — one application of `B` (`O(nnz)`);
 //! * `gershgorin_bound` — the `O(nnz)` rigorous upper bound on λmax;
+//! * `nodal_build` — building the nodal form `C = M^{1/2} K_N M^{1/2}` from the view's `D`
+//!   weights (one pass over the particles, reusing the allocations as `Stability` does);
+//! * `nodal_apply` — one application of `C` (`O(5 n_nodes)`);
+//! * `nodal_update_warm` — one warm Lanczos update on prebuilt nodal operators of two states
+//!   one step apart (alternating, no periodic restart): the tracker's own cost;
 //! * `propose_with_restarts` / `propose_warm_only` — `Stability::propose` (operator build plus
 //!   a warm Lanczos update) alternating between two states one step apart, with the default
 //!   cold restart every 10 updates (the mean per-step cost) and without restarts (the
@@ -19,7 +24,10 @@
 use criterion::{criterion_group, criterion_main, Criterion};
 use mpm_dt::mpm::{Material, ReferenceStepper};
 use mpm_dt::problems::StandingWave;
-use mpm_dt::stability::{Eq56Operator, LanczosConfig, Stability, StabilityConfig};
+use mpm_dt::stability::{
+    Eq56Operator, LambdaMaxTracker, LanczosConfig, NodalOperator, Stability, StabilityConfig,
+    SymmetricOperator,
+};
 use mpm_dt::{Boundary, Grid, Shape, StepLimit, Stepper};
 use std::hint::black_box;
 
@@ -81,6 +89,16 @@ fn bench(c: &mut Criterion) {
     g.bench_function("operator_apply", |b| {
         b.iter(|| op.apply(black_box(&x), &mut y, &mut work))
     });
+    let mut nodal = NodalOperator::new(&view).expect("valid");
+    g.bench_function("nodal_build", |b| {
+        b.iter(|| nodal.rebuild(black_box(&view)).expect("valid"))
+    });
+    let xn = vec![1.0; nodal.dim()];
+    let mut yn = vec![0.0; nodal.dim()];
+    let mut nwork = Vec::new();
+    g.bench_function("nodal_apply", |b| {
+        b.iter(|| nodal.apply(black_box(&xn), &mut yn, &mut nwork))
+    });
     // Per-step cost in a run: a persistent limit proposing alternately for two states one
     // step apart (each proposal warm-started from the other state's eigenvector). With the
     // default settings this includes the periodic cold restarts (1 in 10 proposals); with
@@ -89,6 +107,30 @@ fn bench(c: &mut Criterion) {
     s_next.try_step(dt).expect("stable step");
     s_next.accept().expect("trial pending");
     let next = s_next.view();
+    {
+        let ops = [
+            NodalOperator::new(&view).expect("valid"),
+            NodalOperator::new(&next).expect("valid"),
+        ];
+        let mut tracker = LambdaMaxTracker::new(LanczosConfig {
+            restart_every: 0,
+            ..LanczosConfig::default()
+        })
+        .expect("valid config");
+        tracker.update(&ops[0]).expect("valid");
+        let mut apps = Vec::new();
+        for k in 1..=10 {
+            apps.push(tracker.update(&ops[k % 2]).expect("valid").applications);
+        }
+        eprintln!("nodal warm updates alternating two states: applications {apps:?}");
+        let mut k = 0;
+        g.bench_function("nodal_update_warm", |b| {
+            b.iter(|| {
+                k += 1;
+                black_box(tracker.update(&ops[k % 2]).expect("valid"))
+            })
+        });
+    }
     for (name, restart_every) in [("propose_with_restarts", 10), ("propose_warm_only", 0)] {
         let config = StabilityConfig {
             lanczos: LanczosConfig {

@@ -6,8 +6,10 @@
 //!           or if      dt > (1 + tol) dt_eq56            (a violated stability proposal)
 //! ```
 //!
-//! `λmax(B)` is tracked by [`LambdaMaxTracker`], warm-started from the previous eigenvector at
-//! every proposal (so a proposal costs a few `O(nnz)` applications). The eq 58 value is the
+//! `λmax(B)` is tracked by [`LambdaMaxTracker`] on the *nodal* form of the operator,
+//! `C = M^{1/2} K_N M^{1/2}` ([`NodalOperator`], same λmax, `n_nodes` unknowns, banded), warm-
+//! started from the previous eigenvector at every proposal: a proposal is one pass over the
+//! particles' `D` weights to build `K_N` plus a few `O(5 n_nodes)` applications. The eq 58 value is the
 //! [`Bound58Reading::Consistent`] reading in the strain-energy norm (default): it is a true
 //! lower bound on `ρ(A)`, so a value above 1 *proves* the step's stress amplification
 //! unstable — but it stays near 1 while `ρ(A)` grows (see [`mod@super::bound58`]), which is why
@@ -21,9 +23,7 @@
 //! # When λmax is recomputed ([`Refresh`])
 //!
 //! By default ([`Refresh::default`] = [`Refresh::every_step`]) λmax is updated at every
-//! proposal and eq 58 is checked on every trial. A Lanczos update costs a few applications of
-//! `B`, each about a tenth of a reference solver step, so this makes the limit cost about half
-//! a step. [`Refresh::cached`] is an *opt-in* cheaper mode: it re-runs Lanczos only when the
+//! proposal. [`Refresh::cached`] is an *opt-in* cheaper mode: it re-runs Lanczos only when the
 //! state has drifted from the one of the last update — some particle moved more than
 //! `max_displacement · h`, some active nodal mass changed by more than the relative
 //! `max_mass_change` (or a node switched between active and inactive), some `E_t,p V_p`
@@ -36,7 +36,20 @@
 //! from about 22 to about 5000 within one step, and a warm-started update from the old
 //! eigenvector can converge to the old, still-valid eigenpair instead of the new top one; the
 //! cold restarts every 10 updates that rescue every-step tracking then come 10 *updates*, not
-//! 10 steps, apart. Use it on GIMP layouts, where λmax barely moves.
+//! 10 steps, apart. Use it on GIMP layouts, where λmax barely moves. (Measured before the
+//! tracker gained its diagonal lower-bound guard, see [`super::lambda_max::WARM_BLEND`].)
+//!
+//! # Cost, and why eq 58 is checked on a cadence
+//!
+//! At 10⁵ particles (GIMP, 2 per cell; `cargo bench --bench stability`, README "Stability")
+//! building `K_N` from a view costs about a third of a reference solver step and each nodal
+//! application a few per cent of one, against a tenth of a step per application of the particle
+//! form before. Eq 58 needs the Section 4 estimates (nodal second and third derivatives of the
+//! stress, the weights' moments), about three solver steps per evaluation, while it can only
+//! certify instability (it stays near 1 while `ρ(A)` grows). It is therefore evaluated on the
+//! trial after every [`StabilityConfig::bound58_every`]-th λmax update (default 50: the first
+//! trial of a run, then every 50th), which keeps its share near 6 % of a step; set it to 1 to
+//! check every trial, as the paper's "track stability automatically" suggests, at that price.
 //!
 //! The safety factor can be changed at run time ([`Stability::set_safety`]): the controller's
 //! growth monitor lowers it when it sees the slow instability of moving particles.
@@ -44,7 +57,7 @@
 use super::bound58::{bound58, Bound58Reading};
 use super::error::StabilityError;
 use super::lambda_max::{LambdaEstimate, LambdaMaxTracker, LanczosConfig};
-use super::operator::{Eq56Operator, OperatorBuffers};
+use super::nodal::NodalOperator;
 use crate::limit::{Judgement, LimitError, Metrics, Proposal, RejectCause, StepLimit, Verdict};
 use crate::stepper::View;
 
@@ -64,6 +77,10 @@ pub struct StabilityConfig {
     pub lanczos: LanczosConfig,
     /// When λmax is recomputed (see the module docs).
     pub refresh: Refresh,
+    /// Eq 58 is evaluated on the trial after every `bound58_every`-th λmax update (default
+    /// 50; 1 checks every trial, 0 never). See "Cost" in the module docs for why it is not
+    /// checked at every step by default.
+    pub bound58_every: u32,
 }
 
 /// When the [`Stability`] limit re-runs its λmax update (module docs, "When λmax is
@@ -208,6 +225,7 @@ impl Default for StabilityConfig {
             reading: Bound58Reading::Consistent,
             lanczos: LanczosConfig::default(),
             refresh: Refresh::default(),
+            bound58_every: 50,
         }
     }
 }
@@ -229,10 +247,13 @@ fn check_safety(safety: f64) -> Result<(), StabilityError> {
 pub struct Stability {
     config: StabilityConfig,
     tracker: LambdaMaxTracker,
-    buffers: OperatorBuffers,
+    /// The nodal form of the eq 56 operator, rebuilt in place at each update.
+    nodal: NodalOperator,
     reference: Option<RefreshReference>,
-    /// Whether the last proposal ran a λmax update (eq 58 is then checked on its trial).
+    /// Whether eq 58 is due on the trial of the last proposal.
     fresh: bool,
+    /// λmax updates so far (for [`StabilityConfig::bound58_every`]).
+    updates: u64,
 }
 
 impl Stability {
@@ -250,9 +271,10 @@ impl Stability {
         Ok(Self {
             config,
             tracker: LambdaMaxTracker::new(config.lanczos)?,
-            buffers: OperatorBuffers::default(),
+            nodal: NodalOperator::default(),
             reference: None,
             fresh: false,
+            updates: 0,
         })
     }
 
@@ -289,12 +311,21 @@ impl Stability {
         &self.tracker
     }
 
-    /// Updates λmax for `state` and returns the estimate.
+    /// Updates λmax for `state` and returns the estimate. The Lanczos iteration runs on the
+    /// nodal form `C = M^{1/2} K_N M^{1/2}` of the eq 56 operator ([`NodalOperator`]), which
+    /// has the same `λmax` as the particle form `B` on `n_nodes` instead of `n_particles`
+    /// unknowns (the tracker's vector is therefore nodal).
     pub fn estimate(&mut self, state: &View<'_>) -> Result<LambdaEstimate, StabilityError> {
-        let op = Eq56Operator::new_in(state, std::mem::take(&mut self.buffers))?;
-        let est = self.tracker.update(&op);
-        self.buffers = op.into_buffers();
-        est
+        self.nodal.rebuild(state)?;
+        let est = self.tracker.update(&self.nodal)?;
+        self.updates += 1;
+        Ok(est)
+    }
+
+    /// Whether eq 58 is due after the latest update ([`StabilityConfig::bound58_every`]).
+    fn bound58_due(&self) -> bool {
+        let every = u64::from(self.config.bound58_every);
+        every > 0 && (self.updates.saturating_sub(1)).is_multiple_of(every)
     }
 
     /// The λmax estimate for `state`: the cached one while `state` has not drifted past the
@@ -333,6 +364,8 @@ struct SavedState {
     tracker: super::lambda_max::TrackerState,
     reference: Option<RefreshReference>,
     fresh: bool,
+    #[serde(default)]
+    updates: u64,
 }
 
 impl StepLimit for Stability {
@@ -355,6 +388,7 @@ impl StepLimit for Stability {
             tracker: self.tracker.state(),
             reference: self.reference.clone(),
             fresh: self.fresh,
+            updates: self.updates,
         })
         .ok()
     }
@@ -370,6 +404,7 @@ impl StepLimit for Stability {
         self.tracker.restore(saved.tracker);
         self.reference = saved.reference;
         self.fresh = saved.fresh;
+        self.updates = saved.updates;
         Ok(())
     }
 
@@ -377,7 +412,7 @@ impl StepLimit for Stability {
         let (est, fresh) = self
             .tracked_estimate(state)
             .map_err(|e| e.into_limit_error("stability", state.t))?;
-        self.fresh = fresh;
+        self.fresh = fresh && self.bound58_due();
         let dt = self.config.safety * est.dt_eq56;
         let mut metrics = Metrics::new();
         metrics.insert("lambda_max".into(), est.lambda_hat);
@@ -408,12 +443,15 @@ impl StepLimit for Stability {
         let est = match self.tracker.last() {
             Some(e) => e,
             None => {
-                self.fresh = true;
-                self.estimate(before)
-                    .map_err(|e| e.into_limit_error("stability", before.t))?
+                let est = self
+                    .estimate(before)
+                    .map_err(|e| e.into_limit_error("stability", before.t))?;
+                self.fresh = self.bound58_due();
+                est
             }
         };
-        // Eq 58 needs the Section 4 estimates: checked on the trial after each λmax update.
+        // Eq 58 needs the Section 4 estimates: checked on the trial after every
+        // `bound58_every`-th λmax update.
         let b = if self.fresh {
             bound58(after, dt, self.config.reading)
                 .map_err(|e| e.into_limit_error("stability", after.t))?

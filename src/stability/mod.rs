@@ -6,6 +6,7 @@
 //! |---|---|---|
 //! | [`sound_speed`] | the [`SoundSpeed`] step limit `dt ≤ α h/(c + ‖v‖_∞)` | eq 49, generalised |
 //! | [`operator`] | the eq 56 operator `D*F`, matrix-free in `O(nnz)` and dense (faer) | eqs 50–56 |
+//! | [`nodal`] | the same operator reduced to the nodes, `M^{1/2} K_N M^{1/2}` (banded, same λmax) | eq 56 |
 //! | [`lambda_max`] | `λmax(D*F)` by a warm-started Lanczos iteration | eq 56 |
 //! | [`mod@bound58`] | the eq 58 "lower bound" on the amplification-matrix norm | eqs 33, 57, 58 |
 //! | [`full_map`] | the exact frozen-particle critical step of the whole USL map | eqs 17–29 linearised |
@@ -64,12 +65,16 @@ mod error;
 pub mod full_map;
 pub mod lambda_max;
 pub mod limit;
+pub mod nodal;
 pub mod operator;
 pub mod sound_speed;
 
 pub use error::StabilityError;
 pub use full_map::{FullMap, FullMapConfig};
-pub use lambda_max::{LambdaEstimate, LambdaMaxTracker, LanczosConfig, TrackerState};
+pub use lambda_max::{
+    LambdaEstimate, LambdaMaxTracker, LanczosConfig, SymmetricOperator, TrackerState,
+};
+pub use nodal::NodalOperator;
 
 pub use bound58::{bound58, Bound58, Bound58Reading};
 pub use empirical::{EmpiricalConfig, EmpiricalCritical, Protocol, RunOutcome};
