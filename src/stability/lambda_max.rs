@@ -433,11 +433,11 @@ fn lanczos<O: SymmetricOperator + ?Sized>(
     work: &mut Work,
 ) -> Result<(LambdaEstimate, Vec<f64>), StabilityError> {
     let n = op.dim();
-    let norm = dot(&start, &start).sqrt();
+    let mut norm = dot(&start, &start).sqrt();
     if !(norm.is_finite() && norm > 0.0) {
         start = op.checkerboard_start();
+        norm = dot(&start, &start).sqrt();
     }
-    let norm = dot(&start, &start).sqrt();
     let max_iter = config.max_iter.min(n.max(1));
     let Work {
         basis, w, nodes, ..
@@ -480,10 +480,12 @@ fn lanczos<O: SymmetricOperator + ?Sized>(
         if k == 0 {
             c_prev = 0.0;
         }
+        let mut norm2 = 0.0;
         for ((wi, qi), pi) in w.iter_mut().zip(qk).zip(q_prev) {
             *wi -= c_k * qi + c_prev * pi;
+            norm2 += *wi * *wi;
         }
-        let b = dot(w, w).sqrt();
+        let b = norm2.sqrt();
         let (theta, y) = top_ritz(&alpha, &beta);
         let theta = theta.max(0.0);
         let residual = b * y.last().map_or(0.0, |v| v.abs());
