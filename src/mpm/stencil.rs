@@ -32,13 +32,26 @@ fn floor_fast(q: f64) -> f64 {
     }
 }
 
+/// `⌊q⌋`: with `ROUND` (code compiled for SSE4.1 or later, where it is one `roundsd`)
+/// `q.floor()`, else [`floor_fast`]. Both are equal for `|q| < 2⁶³`, which covers every
+/// particle that a step can accept (larger or non-finite positions only occur in trials
+/// that are refused, whose deposit is discarded).
+#[inline(always)]
+fn floor<const ROUND: bool>(q: f64) -> f64 {
+    if ROUND {
+        q.floor()
+    } else {
+        floor_fast(q)
+    }
+}
+
 /// GIMP weights of a particle at `x` (relative to the grid origin) of width
 /// `0 < width ≤ h`, with `inv_h = 1/h` (see the module docs).
 #[inline(always)]
-pub(crate) fn gimp(x: f64, width: f64, inv_h: f64) -> ParticleStencil {
+pub(crate) fn gimp<const ROUND: bool>(x: f64, width: f64, inv_h: f64) -> ParticleStencil {
     let lam = width * inv_h;
     let q = (x - 0.5 * width) * inv_h;
-    let first = floor_fast(q);
+    let first = floor::<ROUND>(q);
     let alpha = q - first;
     let beta = alpha + lam;
     let bc = beta.min(1.0);
@@ -59,9 +72,9 @@ pub(crate) fn gimp(x: f64, width: f64, inv_h: f64) -> ParticleStencil {
 
 /// Linear-hat weights of a particle at `x` (relative to the grid origin).
 #[inline(always)]
-pub(crate) fn linear(x: f64, inv_h: f64) -> ParticleStencil {
+pub(crate) fn linear<const ROUND: bool>(x: f64, inv_h: f64) -> ParticleStencil {
     let q = x * inv_h;
-    let first = floor_fast(q);
+    let first = floor::<ROUND>(q);
     let f = q - first;
     ParticleStencil {
         first: first as i64,
@@ -74,8 +87,8 @@ pub(crate) fn linear(x: f64, inv_h: f64) -> ParticleStencil {
 #[inline(always)]
 pub(crate) fn of(shape: Shape, x: f64, width: f64, inv_h: f64) -> ParticleStencil {
     match shape {
-        Shape::Gimp => gimp(x, width, inv_h),
-        Shape::Linear => linear(x, inv_h),
+        Shape::Gimp => gimp::<false>(x, width, inv_h),
+        Shape::Linear => linear::<false>(x, inv_h),
     }
 }
 

@@ -205,22 +205,9 @@ pub(crate) fn advance(
     }
     // The accumulators are zero here: `finalize` (or a failed pass, below) cleared them.
 
-    // 2. Fused particle pass, monomorphised over shape, boundary and material.
-    let inv_h = 1.0 / ctx.grid.h;
-    let flags = match (ctx.shape, ctx.grid.boundary) {
-        (Shape::Gimp, Boundary::Periodic) => {
-            with_material::<_, true>(ctx, ws, from, to, dt, Fixed::<true>(inv_h))
-        }
-        (Shape::Gimp, Boundary::Fixed) => {
-            with_material::<_, false>(ctx, ws, from, to, dt, Fixed::<true>(inv_h))
-        }
-        (Shape::Linear, Boundary::Periodic) => {
-            with_material::<_, true>(ctx, ws, from, to, dt, Fixed::<false>(inv_h))
-        }
-        (Shape::Linear, Boundary::Fixed) => {
-            with_material::<_, false>(ctx, ws, from, to, dt, Fixed::<false>(inv_h))
-        }
-    };
+    // 2. Fused particle pass, monomorphised over instruction set, shape, boundary and
+    // material.
+    let flags = particle_pass_dispatch(ctx, ws, from, to, dt);
 
     if let Some(failure) = first_failure(&flags, to) {
         // Leave the accumulators clean for the next attempt.
@@ -231,6 +218,71 @@ pub(crate) fn advance(
     // 3. Grid finalize of the trial state.
     finalize(ctx, &mut ws.acc, to);
     Ok(())
+}
+
+/// Whether the CPU runs the AVX2 build of the particle pass, detected once per process.
+#[cfg(target_arch = "x86_64")]
+fn has_avx2() -> bool {
+    static AVX2: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    *AVX2.get_or_init(|| is_x86_feature_detected!("avx2"))
+}
+
+/// Step 2 in the best build the CPU supports (see the module docs).
+fn particle_pass_dispatch(
+    ctx: &Ctx<'_>,
+    ws: &mut Workspace,
+    from: &State,
+    to: &mut State,
+    dt: f64,
+) -> PassFlags {
+    #[cfg(target_arch = "x86_64")]
+    if has_avx2() {
+        // SAFETY: `particle_pass_avx2` only requires AVX2 (and the SSE4.1 it implies),
+        // which `is_x86_feature_detected!` has just confirmed on this CPU.
+        return unsafe { particle_pass_avx2(ctx, ws, from, to, dt) };
+    }
+    with_shape::<false>(ctx, ws, from, to, dt)
+}
+
+/// The particle pass compiled for AVX2: VEX-encoded arithmetic and `f64::floor` as one
+/// `roundsd` (no FMA, so every result is bit for bit that of the baseline build).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn particle_pass_avx2(
+    ctx: &Ctx<'_>,
+    ws: &mut Workspace,
+    from: &State,
+    to: &mut State,
+    dt: f64,
+) -> PassFlags {
+    with_shape::<true>(ctx, ws, from, to, dt)
+}
+
+/// Selects the shape and boundary at compile time; `ROUND` says whether the code is
+/// compiled with a rounding instruction (SSE4.1).
+#[inline(always)]
+fn with_shape<const ROUND: bool>(
+    ctx: &Ctx<'_>,
+    ws: &mut Workspace,
+    from: &State,
+    to: &mut State,
+    dt: f64,
+) -> PassFlags {
+    let inv_h = 1.0 / ctx.grid.h;
+    match (ctx.shape, ctx.grid.boundary) {
+        (Shape::Gimp, Boundary::Periodic) => {
+            with_material::<_, true>(ctx, ws, from, to, dt, Fixed::<true, ROUND>(inv_h))
+        }
+        (Shape::Gimp, Boundary::Fixed) => {
+            with_material::<_, false>(ctx, ws, from, to, dt, Fixed::<true, ROUND>(inv_h))
+        }
+        (Shape::Linear, Boundary::Periodic) => {
+            with_material::<_, true>(ctx, ws, from, to, dt, Fixed::<false, ROUND>(inv_h))
+        }
+        (Shape::Linear, Boundary::Fixed) => {
+            with_material::<_, false>(ctx, ws, from, to, dt, Fixed::<false, ROUND>(inv_h))
+        }
+    }
 }
 
 /// The first failure of a trial, most basic first: non-finite values, then inversion,
@@ -277,16 +329,17 @@ trait Stencil {
     fn at(&self, x: f64, width: f64) -> ParticleStencil;
 }
 
-/// `Fixed::<true>` evaluates GIMP, `Fixed::<false>` linear-hat weights; `.0` is `1/h`.
-struct Fixed<const GIMP: bool>(f64);
+/// `Fixed::<true, _>` evaluates GIMP, `Fixed::<false, _>` linear-hat weights, with
+/// `f64::floor` if `ROUND`; `.0` is `1/h`.
+struct Fixed<const GIMP: bool, const ROUND: bool>(f64);
 
-impl<const GIMP: bool> Stencil for Fixed<GIMP> {
+impl<const GIMP: bool, const ROUND: bool> Stencil for Fixed<GIMP, ROUND> {
     #[inline(always)]
     fn at(&self, x: f64, width: f64) -> ParticleStencil {
         if GIMP {
-            stencil::gimp(x, width, self.0)
+            stencil::gimp::<ROUND>(x, width, self.0)
         } else {
-            stencil::linear(x, self.0)
+            stencil::linear::<ROUND>(x, self.0)
         }
     }
 }
@@ -329,6 +382,20 @@ where
     }
 }
 
+/// [`Grid::wrap`] of a periodic grid with its origin and length hoisted: the same
+/// arithmetic, so the same bits.
+#[inline(always)]
+fn wrap_periodic(x: f64, origin: f64, length: f64) -> f64 {
+    let mut y = x - origin;
+    if !(0.0..length).contains(&y) {
+        y = y.rem_euclid(length);
+        if y >= length {
+            y = 0.0;
+        }
+    }
+    origin + y
+}
+
 /// The fused particle pass (step 2 of the module docs).
 #[inline(always)]
 fn particle_pass<St, Up, const PERIODIC: bool>(
@@ -348,9 +415,11 @@ where
     let origin = grid.origin;
     let length = grid.length();
     let upper = origin + length;
-    let max_base = (ext_len(grid) - MAX_NODES) as i64;
     let gather = ws.gather.as_slice();
     let acc = ws.acc.as_mut_slice();
+    // From the slice lengths (both `ext_len`), so that the compiler sees every
+    // `base..base + MAX_NODES` in bounds.
+    let max_base = (gather.len().min(acc.len()) - MAX_NODES) as i64;
 
     let n = from.x.len();
     let (x0, v0, s0, f0) = (&from.x[..n], &from.v[..n], &from.sigma[..n], &from.f[..n]);
@@ -393,7 +462,7 @@ where
             finite_sum += x_new.abs() + v_new.abs() + s_new.abs() + f_new.abs();
             min_f = min_f.min(f_new);
             if PERIODIC {
-                x_new = grid.wrap(x_new);
+                x_new = wrap_periodic(x_new, origin, length);
             } else {
                 any_out |= !(x_new >= origin && x_new <= upper);
             }
