@@ -45,10 +45,30 @@ fn floor<const ROUND: bool>(q: f64) -> f64 {
     }
 }
 
+/// A stencil whose first node is still a float (`⌊·⌋`, integral): the form the vectorised
+/// block loops of the step store, converting `first` to an integer only when indexing.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Parts {
+    pub first: f64,
+    pub s: [f64; 3],
+    pub d: [f64; 3],
+}
+
+impl Parts {
+    #[inline(always)]
+    fn stencil(self) -> ParticleStencil {
+        ParticleStencil {
+            first: self.first as i64,
+            s: self.s,
+            d: self.d,
+        }
+    }
+}
+
 /// GIMP weights of a particle at `x` (relative to the grid origin) of width
 /// `0 < width ≤ h`, with `inv_h = 1/h` (see the module docs).
 #[inline(always)]
-pub(crate) fn gimp<const ROUND: bool>(x: f64, width: f64, inv_h: f64) -> ParticleStencil {
+pub(crate) fn gimp_parts<const ROUND: bool>(x: f64, width: f64, inv_h: f64) -> Parts {
     let lam = width * inv_h;
     let q = (x - 0.5 * width) * inv_h;
     let first = floor::<ROUND>(q);
@@ -59,8 +79,8 @@ pub(crate) fn gimp<const ROUND: bool>(x: f64, width: f64, inv_h: f64) -> Particl
     let inv_lam = 1.0 / lam;
     let inv_l = inv_lam * inv_h;
     let (ma, mb) = (1.0 - alpha, 1.0 - bc);
-    ParticleStencil {
-        first: first as i64,
+    Parts {
+        first,
         s: [
             0.5 * (ma * ma - mb * mb) * inv_lam,
             (0.5 * (bc * bc - alpha * alpha) + be - 0.5 * be * be) * inv_lam,
@@ -72,15 +92,27 @@ pub(crate) fn gimp<const ROUND: bool>(x: f64, width: f64, inv_h: f64) -> Particl
 
 /// Linear-hat weights of a particle at `x` (relative to the grid origin).
 #[inline(always)]
-pub(crate) fn linear<const ROUND: bool>(x: f64, inv_h: f64) -> ParticleStencil {
+pub(crate) fn linear_parts<const ROUND: bool>(x: f64, inv_h: f64) -> Parts {
     let q = x * inv_h;
     let first = floor::<ROUND>(q);
     let f = q - first;
-    ParticleStencil {
-        first: first as i64,
+    Parts {
+        first,
         s: [1.0 - f, f, 0.0],
         d: [-inv_h, inv_h, 0.0],
     }
+}
+
+/// [`gimp_parts`] with an integer first node.
+#[inline(always)]
+pub(crate) fn gimp<const ROUND: bool>(x: f64, width: f64, inv_h: f64) -> ParticleStencil {
+    gimp_parts::<ROUND>(x, width, inv_h).stencil()
+}
+
+/// [`linear_parts`] with an integer first node.
+#[inline(always)]
+pub(crate) fn linear<const ROUND: bool>(x: f64, inv_h: f64) -> ParticleStencil {
+    linear_parts::<ROUND>(x, inv_h).stencil()
 }
 
 /// The stencil of `shape` through the fast forms.
