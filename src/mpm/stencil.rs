@@ -174,6 +174,17 @@ mod tests {
         })]
 
         #[test]
+        fn both_floors_agree(
+            q in prop_oneof![-1e6f64..1e6, -4.0f64..4.0, (-1000i64..1000).prop_map(|k| k as f64)],
+        ) {
+            prop_assert_eq!(floor::<true>(q).to_bits(), floor::<false>(q).to_bits());
+            prop_assert_eq!(
+                gimp::<true>(q, 0.7, 1.3),
+                gimp::<false>(q, 0.7, 1.3)
+            );
+        }
+
+        #[test]
         fn fast_stencils_equal_shape_stencils(
             cell in -5i64..1000,
             frac in prop_oneof![4 => 0.0f64..1.0, 1 => Just(0.0), 1 => Just(0.5), 1 => 0.999_999f64..1.0],

@@ -233,9 +233,10 @@ pub(crate) fn advance(
     Ok(())
 }
 
-/// Whether the CPU runs the AVX2 build of the particle pass, detected once per process.
+/// Whether the CPU runs the AVX2 builds of the particle pass and of
+/// [`crate::Weights::compute_into`], detected once per process.
 #[cfg(target_arch = "x86_64")]
-fn has_avx2() -> bool {
+pub(crate) fn has_avx2() -> bool {
     static AVX2: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
     *AVX2.get_or_init(|| is_x86_feature_detected!("avx2"))
 }
