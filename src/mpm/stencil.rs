@@ -14,8 +14,19 @@
 //! ```
 //!
 //! They agree with [`Shape::stencil`] to round-off (a few ulps of `x/h`, relative to the
-//! weights' scale; checked by the property test below), not bit for bit: the weights in a [`crate::View`] come from
-//! [`crate::Weights::compute`], i.e. from [`Shape::stencil`].
+//! weights' scale; checked by the property test below), not bit for bit. The weights in a
+//! [`crate::View`] therefore still come from [`crate::Weights::compute_into`], which stores
+//! [`Shape::stencil`] bit for bit (it only drops that function's overheads: storage reuse,
+//! direct storage of in-range stencils, an AVX2 build): switching the view to these forms
+//! would move every estimate that reads `S`, `D` by round-off, and with it the
+//! controller's decisions.
+//!
+//! `⌊·⌋` comes in two builds with equal results on every position a step can accept
+//! (`|x/h| < 2⁶³`): [`floor_fast`] for the x86-64 baseline (SSE2, no rounding
+//! instruction) and `f64::floor` (one `roundsd`/`vroundpd`) for code compiled with
+//! SSE4.1 or later, selected by the `ROUND` parameter. [`Parts`] keeps the first node as
+//! a float so that the step's block loops, which evaluate many stencils at once,
+//! vectorise.
 
 use crate::shape::{ParticleStencil, Shape};
 
