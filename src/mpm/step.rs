@@ -35,15 +35,24 @@
 //! AVX2 build is chosen at run time by `is_x86_feature_detected!`, once per process; other
 //! CPUs and architectures run the baseline build.
 //!
-//! Measured with `cargo bench --bench step` (standing wave, GIMP, 2 particles per cell,
-//! periodic) on the development VM — an AMD EPYC with 2 cores shared with other jobs, so
-//! noisy; the figures are the best criterion samples of runs side by side — the blocked
-//! scalar loop before this layout did 38 M particle-steps/s at 10⁴ and about 35 M at 10⁶;
-//! the AVX2 dispatch alone (roundsd floor, hoisted periodic wrap, bounds checks removed)
-//! 50 M at 10⁴ (1.3×); the vectorised phases and padded accumulators 88 M at 10⁴, 75–79 M at
-//! 10⁵ and 57 M at 10⁶ (2.3×, 2.2×, 1.6×; 10⁶ is bound by memory traffic, ~120 bytes per
-//! particle-step). The baseline build of the new layout is 1.46× faster than the old at
-//! 10⁵. Blocks of 128, 256 and 1024 particles measured the same within noise.
+//! Measured with `cargo bench --bench step -- --warm-up-time 1 --measurement-time 4`
+//! (standing wave, GIMP, 2 particles per cell, periodic) on the development VM — an AMD
+//! EPYC with 2 cores shared with other jobs, so noisy; old and new binaries run back to
+//! back, figures are the best criterion samples (criterion's means in parentheses), in M
+//! particle-steps/s:
+//!
+//! | particles | blocked scalar loop (before) | AVX2 dispatch only | this layout     |
+//! |-----------|------------------------------|--------------------|-----------------|
+//! | 10³       | 38 (36)                      |                    | 88 (80)         |
+//! | 10⁴       | 38 (34)                      | 50                 | 87 (66)         |
+//! | 10⁵       | 37 (34)                      |                    | 82 (61)         |
+//! | 10⁶       | 35 (31)                      |                    | 63 (58)         |
+//!
+//! "AVX2 dispatch only" is `roundsd` floor, the hoisted periodic wrap and bounds checks
+//! removed, without the vectorised phases. 10⁶ is bound by memory traffic (about 120
+//! bytes per particle-step). The baseline (SSE2) build of this layout is 1.46× faster than
+//! the old loop at 10⁵. Blocks of 128, 256 and 1024 particles measured the same within
+//! noise.
 //!
 //! Failures are detected without branches in the loop (flags for a non-finite
 //! `|x|+|v|+|σ|+|F|` of some particle, for `F ≤ 0`, for a particle out of a fixed domain) and
