@@ -16,7 +16,7 @@
 //! weight 0 (and a valid node index). [`Weights::to_faer`] converts to a
 //! `faer::sparse::SparseColMat` when general sparse algebra is wanted.
 
-use crate::grid::Grid;
+use crate::grid::{Boundary, Grid};
 use crate::shape::{Shape, MAX_NODES};
 use faer::sparse::{SparseColMat, Triplet};
 
@@ -114,27 +114,34 @@ impl Weights {
 
     /// The weights of `shape` for particles at `x` with GIMP widths `widths` on `grid`.
     /// Positions must lie in the grid's domain (the reference solver guarantees it).
+    ///
+    /// The values are those of [`Shape::stencil`]; [`Weights::compute_into`] does the same
+    /// into existing storage.
     pub fn compute(grid: &Grid, shape: Shape, x: &[f64], widths: &[f64]) -> Self {
-        let mut w = Self::new(grid.n_nodes(), MAX_NODES);
-        w.nodes.reserve(x.len() * MAX_NODES);
-        w.s.reserve(x.len() * MAX_NODES);
-        w.d.reserve(x.len() * MAX_NODES);
-        for (&xp, &lp) in x.iter().zip(widths) {
-            let st = shape.stencil(xp - grid.origin, lp, grid.h);
-            for k in 0..MAX_NODES {
-                let node = grid.storage_index(st.first + k as i64);
-                // A slot outside a fixed grid can only carry weight 0 for in-domain
-                // particles; park it on a valid node.
-                let (node, s, d) = match node {
-                    Some(i) => (i, st.s[k], st.d[k]),
-                    None => (0, 0.0, 0.0),
-                };
-                w.nodes.push(node as u32);
-                w.s.push(s);
-                w.d.push(d);
-            }
-        }
+        let mut w = Self::default();
+        w.compute_into(grid, shape, x, widths);
         w
+    }
+
+    /// [`Weights::compute`] into `self`, reusing its allocations: `self` becomes the
+    /// weights of `shape` for particles at `x` with widths `widths` on `grid`, bit for bit
+    /// what [`Weights::compute`] returns.
+    pub fn compute_into(&mut self, grid: &Grid, shape: Shape, x: &[f64], widths: &[f64]) {
+        let n = x.len().min(widths.len());
+        self.n_nodes = grid.n_nodes();
+        self.width = MAX_NODES;
+        self.nodes.resize(n * MAX_NODES, 0);
+        self.s.resize(n * MAX_NODES, 0.0);
+        self.d.resize(n * MAX_NODES, 0.0);
+        let (x, widths) = (&x[..n], &widths[..n]);
+        let out = (&mut self.nodes[..], &mut self.s[..], &mut self.d[..]);
+        #[cfg(target_arch = "x86_64")]
+        if crate::mpm::has_avx2() {
+            // SAFETY: `fill_avx2` only requires AVX2, which `has_avx2` detected on this CPU.
+            unsafe { fill_avx2(grid, shape, x, widths, out) };
+            return;
+        }
+        fill(grid, shape, x, widths, out);
     }
 
     /// Number of nodes (rows of `S` and `D`).
@@ -229,5 +236,55 @@ impl Weights {
             .collect();
         SparseColMat::try_new_from_triplets(self.n_nodes, self.n_particles(), &trip)
             .expect("indices were validated on insertion")
+    }
+}
+
+/// The stored rows `(nodes, S, D)` that [`Weights::compute_into`] fills.
+type Rows<'a> = (&'a mut [u32], &'a mut [f64], &'a mut [f64]);
+
+/// [`fill`] compiled for AVX2, where `f64::floor` in [`Shape::stencil`] is one instruction
+/// instead of a call (the same exact result).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn fill_avx2(grid: &Grid, shape: Shape, x: &[f64], widths: &[f64], out: Rows<'_>) {
+    fill(grid, shape, x, widths, out);
+}
+
+/// Fills the rows of [`Weights::compute_into`] (all slices sized for `x.len()` particles).
+/// A stencil whose three nodes are consecutive stored nodes — every particle but those
+/// whose stencil crosses the periodic wrap or a fixed grid's end — is stored directly; the
+/// others go through [`Grid::storage_index`].
+#[inline(always)]
+fn fill(grid: &Grid, shape: Shape, x: &[f64], widths: &[f64], (nodes, s, d): Rows<'_>) {
+    let (origin, h) = (grid.origin, grid.h);
+    // Storage index of lattice node j is j + shift when it is in range.
+    let shift = match grid.boundary {
+        Boundary::Periodic => 0,
+        Boundary::Fixed => 1,
+    };
+    let last_first = grid.n_nodes() as i64 - MAX_NODES as i64;
+    let rows = nodes
+        .chunks_exact_mut(MAX_NODES)
+        .zip(s.chunks_exact_mut(MAX_NODES))
+        .zip(d.chunks_exact_mut(MAX_NODES));
+    for ((&xp, &lp), ((nodes, s), d)) in x.iter().zip(widths).zip(rows) {
+        let st = shape.stencil(xp - origin, lp, h);
+        let k0 = st.first.saturating_add(shift);
+        if (0..=last_first).contains(&k0) {
+            for (k, node) in nodes.iter_mut().enumerate() {
+                *node = (k0 + k as i64) as u32;
+            }
+            s.copy_from_slice(&st.s);
+            d.copy_from_slice(&st.d);
+        } else {
+            for k in 0..MAX_NODES {
+                // A slot outside a fixed grid can only carry weight 0 for in-domain
+                // particles; park it on a valid node.
+                (nodes[k], s[k], d[k]) = match grid.storage_index(st.first + k as i64) {
+                    Some(i) => (i as u32, st.s[k], st.d[k]),
+                    None => (0, 0.0, 0.0),
+                };
+            }
+        }
     }
 }

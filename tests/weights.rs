@@ -8,7 +8,10 @@
 //!   `D_ip = (1/l_p) ∫ N_i′ χ_p dx`, computed here by Gauss–Legendre quadrature on the
 //!   sub-intervals of `[x_p − l_p/2, x_p + l_p/2]` between the kinks of the hat (the nodes),
 //!   where the integrands are polynomials of degree ≤ 1, with every periodic image of the hat.
+//! * `Weights::compute` and `Weights::compute_into` (into a reused buffer) store exactly,
+//!   bit for bit, `Shape::stencil` slot by slot at `Grid::storage_index`.
 
+use mpm_dt::shape::MAX_NODES;
 use mpm_dt::{Boundary, Grid, Shape, Weights};
 use proptest::prelude::*;
 
@@ -128,6 +131,41 @@ proptest! {
                 prop_assert!(d.abs() < tol / grid.h.min(ws[p]), "{:?} p={} Σ D = {}", shape, p, d);
                 prop_assert!((dx - 1.0).abs() < 1e-11, "{:?} p={} Σ D (X−x) = {}", shape, p, dx);
                 prop_assert!(w.s_of(p).iter().all(|&s| s >= -1e-15), "negative S");
+            }
+        }
+    }
+
+    #[test]
+    fn computed_weights_are_shape_stencils_bit_for_bit(
+        cases in prop::collection::vec(case(), 1..4),
+    ) {
+        // One buffer reused across grids, shapes and particle counts.
+        let mut reused = Weights::new(0, 0);
+        for (grid, xs, ws) in cases {
+            for shape in [Shape::Gimp, Shape::Linear] {
+                let mut expected = Weights::new(grid.n_nodes(), MAX_NODES);
+                for (&x, &l) in xs.iter().zip(&ws) {
+                    let st = shape.stencil(x - grid.origin, l, grid.h);
+                    let row: Vec<_> = (0..MAX_NODES)
+                        .map(|k| match grid.storage_index(st.first + k as i64) {
+                            Some(i) => (i, st.s[k], st.d[k]),
+                            None => (0, 0.0, 0.0),
+                        })
+                        .collect();
+                    expected.push_row(&row).unwrap();
+                }
+                let bits = |w: &Weights| -> Vec<(usize, u64, u64)> {
+                    (0..w.n_particles())
+                        .flat_map(|p| w.row(p).map(|(i, s, d)| (i, s.to_bits(), d.to_bits())).collect::<Vec<_>>())
+                        .collect()
+                };
+                let computed = Weights::compute(&grid, shape, &xs, &ws);
+                reused.compute_into(&grid, shape, &xs, &ws);
+                prop_assert_eq!(computed.n_nodes(), expected.n_nodes());
+                prop_assert_eq!(reused.n_nodes(), expected.n_nodes());
+                prop_assert_eq!(reused.width(), MAX_NODES);
+                prop_assert_eq!(bits(&computed), bits(&expected));
+                prop_assert_eq!(bits(&reused), bits(&expected));
             }
         }
     }

@@ -11,7 +11,7 @@ use super::material::Material;
 use crate::grid::Grid;
 use crate::shape::Shape;
 use crate::weights::Weights;
-use std::cell::OnceCell;
+use std::cell::{Cell, OnceCell};
 
 /// Particle and nodal fields of one state, plus lazily computed observer data.
 #[derive(Clone, Debug, Default)]
@@ -26,6 +26,8 @@ pub(crate) struct State {
     pub node_velocity: Vec<f64>,
     pub node_acceleration: Vec<f64>,
     weights: OnceCell<Weights>,
+    /// The storage of the last dropped `weights`, reused by the next computation.
+    spare_weights: Spare,
     tangent_modulus: OnceCell<Vec<f64>>,
     density: OnceCell<Vec<f64>>,
     node_active: OnceCell<Vec<bool>>,
@@ -48,7 +50,9 @@ impl State {
 
     /// Drops the lazily computed data (call before overwriting the fields).
     pub fn invalidate(&mut self) {
-        self.weights.take();
+        if let Some(w) = self.weights.take() {
+            *self.spare_weights.0.get_mut() = Some(w);
+        }
         self.tangent_modulus.take();
         self.density.take();
         self.node_active.take();
@@ -56,8 +60,11 @@ impl State {
 
     /// `S`, `D` at this state's positions.
     pub fn weights(&self, grid: &Grid, shape: Shape, width: &[f64]) -> &Weights {
-        self.weights
-            .get_or_init(|| Weights::compute(grid, shape, &self.x, width))
+        self.weights.get_or_init(|| {
+            let mut w = self.spare_weights.0.take().unwrap_or_default();
+            w.compute_into(grid, shape, &self.x, width);
+            w
+        })
     }
 
     /// `E_t(F_p)` per particle.
@@ -90,6 +97,22 @@ impl State {
                 .map(|(i, &m)| is_active(grid, i, m, threshold))
                 .collect()
         })
+    }
+}
+
+/// Storage kept for reuse; a clone starts without it (it holds no state).
+#[derive(Default)]
+struct Spare(Cell<Option<Weights>>);
+
+impl std::fmt::Debug for Spare {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Spare")
+    }
+}
+
+impl Clone for Spare {
+    fn clone(&self) -> Self {
+        Self::default()
     }
 }
 

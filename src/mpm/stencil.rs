@@ -14,8 +14,19 @@
 //! ```
 //!
 //! They agree with [`Shape::stencil`] to round-off (a few ulps of `x/h`, relative to the
-//! weights' scale; checked by the property test below), not bit for bit: the weights in a [`crate::View`] come from
-//! [`crate::Weights::compute`], i.e. from [`Shape::stencil`].
+//! weights' scale; checked by the property test below), not bit for bit. The weights in a
+//! [`crate::View`] therefore still come from [`crate::Weights::compute_into`], which stores
+//! [`Shape::stencil`] bit for bit (it only drops that function's overheads: storage reuse,
+//! direct storage of in-range stencils, an AVX2 build): switching the view to these forms
+//! would move every estimate that reads `S`, `D` by round-off, and with it the
+//! controller's decisions.
+//!
+//! `⌊·⌋` comes in two builds with equal results on every position a step can accept
+//! (`|x/h| < 2⁶³`): [`floor_fast`] for the x86-64 baseline (SSE2, no rounding
+//! instruction) and `f64::floor` (one `roundsd`/`vroundpd`) for code compiled with
+//! SSE4.1 or later, selected by the `ROUND` parameter. [`Parts`] keeps the first node as
+//! a float so that the step's block loops, which evaluate many stencils at once,
+//! vectorise.
 
 use crate::shape::{ParticleStencil, Shape};
 
@@ -32,13 +43,46 @@ fn floor_fast(q: f64) -> f64 {
     }
 }
 
+/// `⌊q⌋`: with `ROUND` (code compiled for SSE4.1 or later, where it is one `roundsd`)
+/// `q.floor()`, else [`floor_fast`]. Both are equal for `|q| < 2⁶³`, which covers every
+/// particle that a step can accept (larger or non-finite positions only occur in trials
+/// that are refused, whose deposit is discarded).
+#[inline(always)]
+fn floor<const ROUND: bool>(q: f64) -> f64 {
+    if ROUND {
+        q.floor()
+    } else {
+        floor_fast(q)
+    }
+}
+
+/// A stencil whose first node is still a float (`⌊·⌋`, integral): the form the vectorised
+/// block loops of the step store, converting `first` to an integer only when indexing.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Parts {
+    pub first: f64,
+    pub s: [f64; 3],
+    pub d: [f64; 3],
+}
+
+impl Parts {
+    #[inline(always)]
+    fn stencil(self) -> ParticleStencil {
+        ParticleStencil {
+            first: self.first as i64,
+            s: self.s,
+            d: self.d,
+        }
+    }
+}
+
 /// GIMP weights of a particle at `x` (relative to the grid origin) of width
 /// `0 < width ≤ h`, with `inv_h = 1/h` (see the module docs).
 #[inline(always)]
-pub(crate) fn gimp(x: f64, width: f64, inv_h: f64) -> ParticleStencil {
+pub(crate) fn gimp_parts<const ROUND: bool>(x: f64, width: f64, inv_h: f64) -> Parts {
     let lam = width * inv_h;
     let q = (x - 0.5 * width) * inv_h;
-    let first = floor_fast(q);
+    let first = floor::<ROUND>(q);
     let alpha = q - first;
     let beta = alpha + lam;
     let bc = beta.min(1.0);
@@ -46,8 +90,8 @@ pub(crate) fn gimp(x: f64, width: f64, inv_h: f64) -> ParticleStencil {
     let inv_lam = 1.0 / lam;
     let inv_l = inv_lam * inv_h;
     let (ma, mb) = (1.0 - alpha, 1.0 - bc);
-    ParticleStencil {
-        first: first as i64,
+    Parts {
+        first,
         s: [
             0.5 * (ma * ma - mb * mb) * inv_lam,
             (0.5 * (bc * bc - alpha * alpha) + be - 0.5 * be * be) * inv_lam,
@@ -59,23 +103,35 @@ pub(crate) fn gimp(x: f64, width: f64, inv_h: f64) -> ParticleStencil {
 
 /// Linear-hat weights of a particle at `x` (relative to the grid origin).
 #[inline(always)]
-pub(crate) fn linear(x: f64, inv_h: f64) -> ParticleStencil {
+pub(crate) fn linear_parts<const ROUND: bool>(x: f64, inv_h: f64) -> Parts {
     let q = x * inv_h;
-    let first = floor_fast(q);
+    let first = floor::<ROUND>(q);
     let f = q - first;
-    ParticleStencil {
-        first: first as i64,
+    Parts {
+        first,
         s: [1.0 - f, f, 0.0],
         d: [-inv_h, inv_h, 0.0],
     }
+}
+
+/// [`gimp_parts`] with an integer first node.
+#[inline(always)]
+pub(crate) fn gimp<const ROUND: bool>(x: f64, width: f64, inv_h: f64) -> ParticleStencil {
+    gimp_parts::<ROUND>(x, width, inv_h).stencil()
+}
+
+/// [`linear_parts`] with an integer first node.
+#[inline(always)]
+pub(crate) fn linear<const ROUND: bool>(x: f64, inv_h: f64) -> ParticleStencil {
+    linear_parts::<ROUND>(x, inv_h).stencil()
 }
 
 /// The stencil of `shape` through the fast forms.
 #[inline(always)]
 pub(crate) fn of(shape: Shape, x: f64, width: f64, inv_h: f64) -> ParticleStencil {
     match shape {
-        Shape::Gimp => gimp(x, width, inv_h),
-        Shape::Linear => linear(x, inv_h),
+        Shape::Gimp => gimp::<false>(x, width, inv_h),
+        Shape::Linear => linear::<false>(x, inv_h),
     }
 }
 
@@ -127,6 +183,17 @@ mod tests {
             )),
             ..ProptestConfig::default()
         })]
+
+        #[test]
+        fn both_floors_agree(
+            q in prop_oneof![-1e6f64..1e6, -4.0f64..4.0, (-1000i64..1000).prop_map(|k| k as f64)],
+        ) {
+            prop_assert_eq!(floor::<true>(q).to_bits(), floor::<false>(q).to_bits());
+            prop_assert_eq!(
+                gimp::<true>(q, 0.7, 1.3),
+                gimp::<false>(q, 0.7, 1.3)
+            );
+        }
 
         #[test]
         fn fast_stencils_equal_shape_stencils(
