@@ -67,6 +67,7 @@ pub mod limit;
 pub mod operator;
 pub mod sound_speed;
 
+pub(crate) use error::all_finite;
 pub use error::StabilityError;
 pub use full_map::{FullMap, FullMapConfig};
 pub use lambda_max::{LambdaEstimate, LambdaMaxTracker, LanczosConfig, TrackerState};
