@@ -128,6 +128,10 @@ struct Windows {
 pub struct GrowthMonitor {
     config: GrowthConfig,
     state: Windows,
+    /// The indicator of the last judged trial `(t, dt, value)`, reused by `accepted` when
+    /// it is called for that trial (same start time and step, compared bit for bit), so the
+    /// indicator is computed once per accepted step, not twice.
+    judged: Option<(f64, f64, f64)>,
 }
 
 /// The name of the monitor in logs and statistics.
@@ -188,6 +192,7 @@ impl GrowthMonitor {
         Ok(Self {
             config,
             state: Windows::default(),
+            judged: None,
         })
     }
 
@@ -246,11 +251,12 @@ impl StepLimit for GrowthMonitor {
 
     fn judge(
         &mut self,
-        _before: &View<'_>,
+        before: &View<'_>,
         after: &View<'_>,
         dt: f64,
     ) -> Result<Judgement, LimitError> {
         let value = self.indicator(after);
+        self.judged = Some((before.t, dt, value));
         let mut metrics = Metrics::new();
         metrics.insert("growth_indicator".to_string(), value);
         let w = self.pushed(value);
@@ -268,12 +274,20 @@ impl StepLimit for GrowthMonitor {
         Ok(Judgement { verdict, metrics })
     }
 
-    fn accepted(&mut self, _before: &View<'_>, after: &View<'_>, _dt: f64) {
-        let value = self.indicator(after);
+    fn accepted(&mut self, before: &View<'_>, after: &View<'_>, dt: f64) {
+        let value = match self.judged.take() {
+            Some((t, d, value))
+                if t.to_bits() == before.t.to_bits() && d.to_bits() == dt.to_bits() =>
+            {
+                value
+            }
+            _ => self.indicator(after),
+        };
         self.state = self.pushed(value);
     }
 
     fn rejected(&mut self, _dt: f64, cause: RejectCause) {
+        self.judged = None;
         if cause == RejectCause::Growth {
             self.state = Windows::default();
         }

@@ -172,7 +172,17 @@ fn finite_metrics(into: &mut Metrics, from: &Metrics) {
     }
 }
 
+/// The first non-finite value of the trial's `x`, `v`, `σ`, `F` (in that order), if any.
+///
+/// Runs on every trial: a vectorised pass per field confirms the normal case (all finite)
+/// and only a failing field is searched element by element for the first bad index.
 fn first_nonfinite(view: &View<'_>) -> Option<(&'static str, usize, f64)> {
+    if [view.x, view.v, view.sigma, view.f]
+        .into_iter()
+        .all(crate::stability::all_finite)
+    {
+        return None;
+    }
     for (name, field) in [
         ("x", view.x),
         ("v", view.v),

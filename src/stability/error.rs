@@ -94,7 +94,244 @@ impl StabilityError {
 /// Checks the fields the stability analysis reads: lengths, finite `x`, `v`, `σ`, positive
 /// finite `F`, `V⁰`, `m_p`, `E_t`, `ρ`, and positive finite mass at every active node, and at
 /// least one active node.
+///
+/// Every limit calls this on every view it sees, so it is on the controller's per-step path.
+/// A valid view (the normal case) is confirmed by one fused pass over the particles
+/// ([`scan_particles`]) and one over the nodes, branch-free within blocks of particles so
+/// that it vectorises. Only when that pass finds a problem does [`check_view_exact`] run the
+/// field-by-field checks, so the error reported (which field, which index, which check
+/// first) is exactly the one the field-by-field order gives.
 pub(crate) fn check_view(view: &crate::stepper::View<'_>) -> Result<(), StabilityError> {
+    match check_view_scan(view, false) {
+        Some(_) => Ok(()),
+        None => check_view_exact(view),
+    }
+}
+
+/// [`check_view`] and, from the same pass over the particles, `(max_p E_t,p/ρ_p, max_p |v_p|)`
+/// (both `≥ 0`). The squared wave speed is returned rather than `max_p √(E_t/ρ)`: `√` is
+/// monotone and correctly rounded, so `√(max_p E_t/ρ) = max_p √(E_t/ρ)` bit for bit, at one
+/// square root per view instead of one per particle.
+pub(crate) fn check_view_speeds(
+    view: &crate::stepper::View<'_>,
+) -> Result<(f64, f64), StabilityError> {
+    match check_view_scan(view, true) {
+        Some(speeds) => Ok(speeds),
+        None => {
+            check_view_exact(view)?;
+            // Unreachable in practice: the scan fails only where the exact check fails.
+            // Computed plainly so that a disagreement could never change a result.
+            let n = view.n_particles();
+            let c2 = (0..n)
+                .map(|p| view.tangent_modulus[p] / view.density[p])
+                .fold(0.0, f64::max);
+            let v = view.v.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+            Ok((c2, v))
+        }
+    }
+}
+
+/// Lanes of the scans: each lane keeps its own accumulators, so the loops are plain
+/// element-wise float operations (which the compiler vectorises) instead of one sequential
+/// chain, and `f64::is_finite` (which compiles to scalar integer bit tests) is not used.
+const LANES: usize = 8;
+
+/// The fast path of [`check_view`]: `Some((max E_t/ρ, max |v|))` (zeros unless `speeds`) when
+/// every check passes, `None` when any may fail.
+///
+/// The scan only has to be *sound*: it never returns `Some` for a view the exact check
+/// rejects, while a false alarm (an overflowing sum of large finite values) merely sends
+/// the caller to [`check_view_exact`].
+fn check_view_scan(view: &crate::stepper::View<'_>, speeds: bool) -> Option<(f64, f64)> {
+    let n = view.n_particles();
+    let nn = view.grid.n_nodes();
+    if n == 0
+        || [
+            view.v.len(),
+            view.sigma.len(),
+            view.f.len(),
+            view.volume0.len(),
+            view.mass.len(),
+            view.tangent_modulus.len(),
+            view.density.len(),
+            view.weights.n_particles(),
+        ]
+        .iter()
+        .any(|&len| len != n)
+        || [
+            view.weights.n_nodes(),
+            view.node_mass.len(),
+            view.node_velocity.len(),
+            view.node_acceleration.len(),
+            view.node_active.len(),
+        ]
+        .iter()
+        .any(|&len| len != nn)
+    {
+        return None;
+    }
+    let out = if speeds {
+        scan_particles::<true>(view)?
+    } else {
+        scan_particles::<false>(view)?
+    };
+    // Active nodes: positive finite mass; inactive ones count as mass 1.
+    let (mut bad, mut lo) = ([0.0_f64; LANES], [f64::INFINITY; LANES]);
+    let mut any = false;
+    let mass = view.node_mass.chunks_exact(LANES);
+    let active = view.node_active.chunks_exact(LANES);
+    let (mass_rest, active_rest) = (mass.remainder(), active.remainder());
+    for (m, a) in mass.zip(active) {
+        for k in 0..LANES {
+            let mk = if a[k] { m[k] } else { 1.0 };
+            bad[k] += mk * 0.0;
+            lo[k] = min(mk, lo[k]);
+            any |= a[k];
+        }
+    }
+    for (&m, &a) in mass_rest.iter().zip(active_rest) {
+        let m = if a { m } else { 1.0 };
+        bad[0] += m * 0.0;
+        lo[0] = min(m, lo[0]);
+        any |= a;
+    }
+    let bad = bad.into_iter().fold(0.0, |a, b| a + b);
+    let lo = lo.into_iter().fold(f64::INFINITY, min);
+    (bad == 0.0 && lo > 0.0 && any).then_some(out)
+}
+
+/// The particle part of [`check_view_scan`]; with `SPEEDS` it also takes `max E_t/ρ` and
+/// `max |v|` (in the passes that check `E_t`, `ρ` and `v`).
+///
+/// One vectorised pass per field (each field is still read once; `E_t` and `ρ` together).
+/// A value `x` is finite exactly when `0·x` is `±0` rather than NaN, so a lane's sum of `0·x`
+/// is 0 exactly when all its values are finite; the positive fields are also checked
+/// through their minimum. The maxima are taken per lane and then over the lanes; for values
+/// without NaN `max` does not depend on the order, so they equal the left-to-right
+/// `f64::max` fold bit for bit.
+fn scan_particles<const SPEEDS: bool>(view: &crate::stepper::View<'_>) -> Option<(f64, f64)> {
+    let ok = [view.x, view.sigma].into_iter().all(all_finite)
+        && [view.f, view.volume0, view.mass]
+            .into_iter()
+            .all(all_positive);
+    if !ok {
+        return None;
+    }
+    if !SPEEDS {
+        return (all_finite(view.v)
+            && all_positive(view.tangent_modulus)
+            && all_positive(view.density))
+        .then_some((0.0, 0.0));
+    }
+    let vmax = finite_max_abs(view.v)?;
+    let c2 = positive_max_ratio(view.tangent_modulus, view.density)?;
+    Some((c2, vmax))
+}
+
+/// Whether every value is positive and finite (lane-wise, see [`scan_particles`]).
+fn all_positive(values: &[f64]) -> bool {
+    let mut bad = [0.0_f64; LANES];
+    let mut lo = [f64::INFINITY; LANES];
+    let mut chunks = values.chunks_exact(LANES);
+    for c in chunks.by_ref() {
+        for k in 0..LANES {
+            bad[k] += c[k] * 0.0;
+            lo[k] = min(c[k], lo[k]);
+        }
+    }
+    for &x in chunks.remainder() {
+        bad[0] += x * 0.0;
+        lo[0] = min(x, lo[0]);
+    }
+    bad.iter().all(|&b| b == 0.0) && lo.iter().all(|&l| l > 0.0)
+}
+
+/// `max |v|` if every value is finite (lane-wise, see [`scan_particles`]).
+fn finite_max_abs(values: &[f64]) -> Option<f64> {
+    let mut bad = [0.0_f64; LANES];
+    let mut hi = [0.0_f64; LANES];
+    let mut chunks = values.chunks_exact(LANES);
+    for c in chunks.by_ref() {
+        for k in 0..LANES {
+            bad[k] += c[k] * 0.0;
+            hi[k] = max(c[k].abs(), hi[k]);
+        }
+    }
+    for &x in chunks.remainder() {
+        bad[0] += x * 0.0;
+        hi[0] = max(x.abs(), hi[0]);
+    }
+    bad.iter()
+        .all(|&b| b == 0.0)
+        .then(|| hi.into_iter().fold(0.0, max))
+}
+
+/// `max_p e_p/r_p` if every value of `e` and `r` (equal lengths) is positive and finite
+/// (lane-wise, see [`scan_particles`]).
+fn positive_max_ratio(e: &[f64], r: &[f64]) -> Option<f64> {
+    if e.len() != r.len() {
+        return None;
+    }
+    let mut bad = [0.0_f64; LANES];
+    let mut lo = [f64::INFINITY; LANES];
+    let mut hi = [0.0_f64; LANES];
+    let (mut ce, mut cr) = (e.chunks_exact(LANES), r.chunks_exact(LANES));
+    for (a, b) in ce.by_ref().zip(cr.by_ref()) {
+        for k in 0..LANES {
+            bad[k] += a[k] * 0.0 + b[k] * 0.0;
+            lo[k] = min(min(a[k], b[k]), lo[k]);
+            hi[k] = max(a[k] / b[k], hi[k]);
+        }
+    }
+    for (&a, &b) in ce.remainder().iter().zip(cr.remainder()) {
+        bad[0] += a * 0.0 + b * 0.0;
+        lo[0] = min(min(a, b), lo[0]);
+        hi[0] = max(a / b, hi[0]);
+    }
+    (bad.iter().all(|&b| b == 0.0) && lo.iter().all(|&l| l > 0.0))
+        .then(|| hi.into_iter().fold(0.0, max))
+}
+
+/// `a < b ? a : b` (one `minpd`; only used where NaN has been excluded or is caught
+/// otherwise).
+#[inline(always)]
+fn min(a: f64, b: f64) -> f64 {
+    if a < b {
+        a
+    } else {
+        b
+    }
+}
+
+/// `a > b ? a : b` (one `maxpd`; only used where NaN has been excluded or is caught
+/// otherwise).
+#[inline(always)]
+fn max(a: f64, b: f64) -> f64 {
+    if a > b {
+        a
+    } else {
+        b
+    }
+}
+
+/// Whether every value is finite (no NaN, no ±∞): lane-wise sums of `0·x`, which are 0
+/// exactly when all values are finite (vectorised; see [`LANES`]).
+pub(crate) fn all_finite(values: &[f64]) -> bool {
+    let mut bad = [0.0_f64; LANES];
+    let mut chunks = values.chunks_exact(LANES);
+    for c in chunks.by_ref() {
+        for k in 0..LANES {
+            bad[k] += c[k] * 0.0;
+        }
+    }
+    for &x in chunks.remainder() {
+        bad[0] += x * 0.0;
+    }
+    bad.iter().all(|&b| b == 0.0)
+}
+
+/// The field-by-field checks, in the order that decides which error is reported.
+fn check_view_exact(view: &crate::stepper::View<'_>) -> Result<(), StabilityError> {
     let n = view.n_particles();
     if n == 0 {
         return Err(StabilityError::NoParticles);

@@ -69,6 +69,7 @@ pub mod nodal;
 pub mod operator;
 pub mod sound_speed;
 
+pub(crate) use error::all_finite;
 pub use error::StabilityError;
 pub use full_map::{FullMap, FullMapConfig};
 pub use lambda_max::{

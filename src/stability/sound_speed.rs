@@ -21,7 +21,7 @@
 //! the critical step collapses as `√(m_min/m_typical)` with no change in `c` (0.11 h/c frozen,
 //! 0.04 h/c with moving particles at 1.5 % mass): use the [`super::Stability`] limit there.
 
-use super::error::{check_view, StabilityError};
+use super::error::{check_view_speeds, StabilityError};
 use crate::limit::{LimitError, Metrics, Proposal, StepLimit};
 use crate::stepper::View;
 
@@ -64,13 +64,14 @@ impl SoundSpeed {
     }
 
     /// `(c_max, ‖v‖_∞)` of a state (wave speed from the tangent modulus and density).
+    ///
+    /// The view is validated and both maxima are taken in the same pass over the particles
+    /// (this runs on every proposal); `c_max` is `√(max_p E_t,p/ρ_p)`, which equals
+    /// `max_p` [`View::wave_speed`] bit for bit because `√` is monotone and correctly
+    /// rounded.
     pub fn speeds(view: &View<'_>) -> Result<(f64, f64), StabilityError> {
-        check_view(view)?;
-        let c = (0..view.n_particles())
-            .map(|p| view.wave_speed(p))
-            .fold(0.0, f64::max);
-        let v = view.v.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
-        Ok((c, v))
+        let (c2, v) = check_view_speeds(view)?;
+        Ok((c2.sqrt(), v))
     }
 
     /// The eq 49 step `h/c_max` (α = 1, particles at rest): the paper's rule as printed.
