@@ -98,8 +98,13 @@ pub struct LanczosConfig {
     /// eigenvalue error is quadratic in the residual).
     pub tol: f64,
     /// Relative change of the Ritz value between two iterations at which it counts as
-    /// converged (default `1e-5`: measured λmax error ≤ 6·10⁻⁴ on a moving 10⁵-particle
-    /// bar, i.e. `dt_eq56` within 3·10⁻⁴; 0 disables this test).
+    /// converged (default `1e-4`; 0 disables this test). On a moving 10⁵-particle GIMP bar the
+    /// top of the spectrum is a cluster of eigenvalues within ~0.5 % of each other whose
+    /// Ritz values creep up slowly: at `1e-5` the warm updates of a controlled run took 17.7
+    /// applications per step on average over 400 steps, at `1e-4` 6.7 (`examples`-free
+    /// measurement, see the README). Any member of that cluster gives `dt_eq56` within 0.25 %,
+    /// far inside the `Stability` limit's safety margin, and the tests compare every warm
+    /// update with the dense eigenvalue.
     pub value_tol: f64,
     /// Every this many updates, also run a cold start and keep the larger value (default 10;
     /// 0 never restarts). See "Level crossings" in the module docs.
@@ -116,7 +121,7 @@ impl Default for LanczosConfig {
     fn default() -> Self {
         Self {
             tol: 1e-3,
-            value_tol: 1e-5,
+            value_tol: 1e-4,
             restart_every: 10,
             restart_iter: 20,
             max_iter: 60,
@@ -406,7 +411,11 @@ pub(crate) fn checkerboard_with_noise(n: usize, parity: impl Fn(usize) -> u64) -
     let mut state: u64 = 0x9E37_79B9_7F4A_7C15;
     (0..n)
         .map(|k| {
-            let sign = if parity(k).is_multiple_of(2) { 1.0 } else { -1.0 };
+            let sign = if parity(k).is_multiple_of(2) {
+                1.0
+            } else {
+                -1.0
+            };
             // splitmix64
             state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
             let mut z = state;

@@ -49,6 +49,11 @@ pub struct NodalOperator {
     off: Vec<[f64; 2]>,
     /// `1/√m_i` at active nodes, 0 elsewhere.
     scale: Vec<f64>,
+    /// The bands of `C` itself: `C_ii = K_N(i, i)/m_i` …
+    c_diag: Vec<f64>,
+    /// … and `[C(i, i+1), C(i, i+2)] = K_N(i, i+o)/√(m_i m_{i+o})`, so that an application
+    /// is one pass with five products per node.
+    c_off: Vec<[f64; 2]>,
     periodic: bool,
     h: f64,
     c2_ref: f64,
@@ -135,7 +140,25 @@ impl NodalOperator {
             }
         }
         self.c2_ref = c2_ref;
+        self.scale_bands();
         Ok(())
+    }
+
+    /// Fills the bands of `C` from those of `K_N` and the scale `1/√m_i`.
+    fn scale_bands(&mut self) {
+        let n = self.diag.len();
+        self.c_diag.clear();
+        self.c_diag
+            .extend(self.diag.iter().zip(&self.scale).map(|(k, s)| k * s * s));
+        self.c_off.clear();
+        self.c_off.resize(n, [0.0; 2]);
+        for i in 0..n {
+            for o in 0..2 {
+                if let Some(j) = self.neighbour(i, o + 1) {
+                    self.c_off[i][o] = self.off[i][o] * self.scale[i] * self.scale[j];
+                }
+            }
+        }
     }
 
     /// Grid spacing `h`.
@@ -171,22 +194,18 @@ impl NodalOperator {
     /// A rigorous upper bound on `λmax(C) = λmax(B)` by Gershgorin's theorem on `C`:
     /// `max_i s_i Σ_j |K_N(i, j)| s_j` with `s_i = 1/√m_i` (0 at inactive nodes). `O(n_nodes)`.
     pub fn gershgorin_bound(&self) -> f64 {
-        let n = self.diag.len();
-        let mut row = vec![0.0; n];
+        let n = self.c_diag.len();
+        let mut row: Vec<f64> = self.c_diag.iter().map(|c| c.abs()).collect();
         for i in 0..n {
-            row[i] += self.diag[i].abs() * self.scale[i];
             for o in 0..2 {
                 if let Some(j) = self.neighbour(i, o + 1) {
-                    let c = self.off[i][o].abs();
-                    row[i] += c * self.scale[j];
-                    row[j] += c * self.scale[i];
+                    let c = self.c_off[i][o].abs();
+                    row[i] += c;
+                    row[j] += c;
                 }
             }
         }
-        row.iter()
-            .zip(&self.scale)
-            .map(|(r, s)| r * s)
-            .fold(0.0, f64::max)
+        row.into_iter().fold(0.0, f64::max)
     }
 
     /// Node `i + o` (wrapped on periodic grids, `None` past a fixed grid's last node).
@@ -202,14 +221,6 @@ impl NodalOperator {
             None
         }
     }
-}
-
-/// `y_i = s_i (K_ii z_i + K(i,i+1) z_{i+1} + K(i,i+2) z_{i+2} + K(i−1,i) z_{i−1} +
-/// K(i−2,i) z_{i−2})` with `zz = z[i−2..=i+2]` and `k = [K(i,i+1), K(i,i+2), K(i−1,i),
-/// K(i−2,i)]`.
-#[inline(always)]
-fn y_row(y: &mut f64, s: f64, d: f64, k: [f64; 4], zz: &[f64]) {
-    *y = s * (d * zz[2] + k[0] * zz[3] + k[1] * zz[4] + k[2] * zz[1] + k[3] * zz[0]);
 }
 
 /// The band slot `(i, o)` (`o = 0` for distance 1, `1` for distance 2) holding the coupling
@@ -232,59 +243,48 @@ impl SymmetricOperator for NodalOperator {
         self.diag.len()
     }
 
-    /// `y = C x = M^{1/2} K_N M^{1/2} x` in `O(5 n_nodes)`; `work` holds `M^{1/2} x`.
-    fn apply(&self, x: &[f64], y: &mut [f64], work: &mut Vec<f64>) {
-        let n = self.diag.len();
-        work.clear();
-        work.extend(x.iter().zip(&self.scale).map(|(x, s)| x * s));
-        let z = work.as_slice();
-        // Interior rows need no wrap: y_i = d_i z_i + Σ_{o=1,2} K(i,i+o) z_{i+o} + K(i−o,i) z_{i−o}.
-        let row = |i: usize, z_at: &dyn Fn(isize) -> f64| -> f64 {
-            let mut acc = self.diag[i] * z[i];
-            for o in 1..=2isize {
-                acc += self.off[i][(o - 1) as usize] * z_at(i as isize + o);
-                let back = i as isize - o;
-                let src = if back >= 0 {
-                    Some(back as usize)
+    /// `y = C x = M^{1/2} K_N M^{1/2} x` in one pass of five products per node (`work` is
+    /// not needed).
+    fn apply(&self, x: &[f64], y: &mut [f64], _work: &mut Vec<f64>) {
+        let n = self.c_diag.len();
+        let (cd, co) = (&self.c_diag[..n], &self.c_off[..n]);
+        let (x, y) = (&x[..n], &mut y[..n]);
+        // Row i: C_ii x_i + C(i,i+1) x_{i+1} + C(i,i+2) x_{i+2} + C(i−1,i) x_{i−1} + C(i−2,i) x_{i−2}.
+        let row = |i: usize| -> f64 {
+            let mut acc = cd[i] * x[i];
+            for o in 1..=2 {
+                if let Some(j) = self.neighbour(i, o) {
+                    acc += co[i][o - 1] * x[j];
+                }
+                let back = if i >= o {
+                    Some(i - o)
                 } else if self.periodic {
-                    Some((back + n as isize) as usize)
+                    Some(i + n - o)
                 } else {
                     None
                 };
-                if let Some(j) = src {
-                    acc += self.off[j][(o - 1) as usize] * z_at(i as isize - o);
+                if let Some(j) = back {
+                    acc += co[j][o - 1] * x[j];
                 }
             }
             acc
         };
-        let wrapped = |j: isize| -> f64 {
-            if j >= 0 && (j as usize) < n {
-                z[j as usize]
-            } else if self.periodic {
-                z[j.rem_euclid(n as isize) as usize]
-            } else {
-                0.0
-            }
-        };
         if n >= 5 {
-            let (diag, off, scale) = (&self.diag[..n], &self.off[..n], &self.scale[..n]);
-            for (i, yi) in y.iter_mut().enumerate().take(n - 2).skip(2) {
-                let zz = &z[i - 2..i + 3];
-                let [a1, a2] = off[i];
-                y_row(
-                    yi,
-                    scale[i],
-                    diag[i],
-                    [a1, a2, off[i - 1][0], off[i - 2][1]],
-                    zz,
-                );
+            for i in 2..n - 2 {
+                let xx = &x[i - 2..i + 3];
+                let [a1, a2] = co[i];
+                y[i] = cd[i] * xx[2]
+                    + a1 * xx[3]
+                    + a2 * xx[4]
+                    + co[i - 1][0] * xx[1]
+                    + co[i - 2][1] * xx[0];
             }
             for i in [0, 1, n - 2, n - 1] {
-                y[i] = self.scale[i] * row(i, &wrapped);
+                y[i] = row(i);
             }
         } else {
-            for (i, (yi, s)) in y.iter_mut().zip(&self.scale).enumerate() {
-                *yi = s * row(i, &wrapped);
+            for (i, yi) in y.iter_mut().enumerate() {
+                *yi = row(i);
             }
         }
     }
@@ -302,10 +302,9 @@ impl SymmetricOperator for NodalOperator {
     /// `max_i K_N(i, i)/m_i` over active nodes: the lower bound on `λmax` that catches a mode
     /// localised at a light node (linear hats) which a warm start may not see.
     fn diagonal_max(&self) -> Option<(usize, f64)> {
-        self.diag
+        self.c_diag
             .iter()
-            .zip(&self.scale)
-            .map(|(k, s)| k * s * s)
+            .copied()
             .enumerate()
             .fold(None, |best: Option<(usize, f64)>, (i, c)| match best {
                 Some((_, b)) if b >= c => best,
