@@ -156,11 +156,12 @@ impl UserMpm {
             mass: &self.mass,
             tangent_modulus: &self.tangent,
             density: &s.density,
-            weights: &s.weights,
+            weights: (&s.weights).into(),
             node_mass: &s.node_mass,
             node_velocity: &s.node_v,
             node_acceleration: &s.node_a,
             node_active: &s.active,
+            nodal_stiffness: None,
         }
     }
 }

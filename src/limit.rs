@@ -145,6 +145,12 @@ pub trait StepLimit {
         let _ = (before, after, dt);
     }
 
+    /// Whether this limit reads [`View::nodal_stiffness`] (default `false`); the controller
+    /// then asks its stepper to provide it ([`crate::Stepper::provide_nodal_stiffness`]).
+    fn reads_nodal_stiffness(&self) -> bool {
+        false
+    }
+
     /// Records a rejected attempt of step `dt` and its cause.
     fn rejected(&mut self, dt: f64, cause: RejectCause) {
         let _ = (dt, cause);

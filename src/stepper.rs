@@ -15,7 +15,8 @@
 //! Section 6 read.
 
 use crate::grid::Grid;
-use crate::weights::Weights;
+use crate::nodal_stiffness::NodalStiffness;
+use crate::view_weights::ViewWeights;
 
 /// A read-only view of one state of a 1D MPM solver. All slices of particle fields have
 /// the same length (number of particles), all nodal slices `grid.n_nodes()`.
@@ -44,8 +45,9 @@ pub struct View<'a> {
     pub tangent_modulus: &'a [f64],
     /// Current density `ρ_p = m_p/(F_p V_p⁰)`.
     pub density: &'a [f64],
-    /// `S_ip` and `D_ip` at the particle positions of this state.
-    pub weights: &'a Weights,
+    /// `S_ip` and `D_ip` at the particle positions of this state, ready or computed on first
+    /// use ([`ViewWeights`]; dereferences to [`Weights`]).
+    pub weights: ViewWeights<'a>,
     /// Nodal masses `m_i` (eq 7).
     pub node_mass: &'a [f64],
     /// Nodal velocities `v_i` (eq 17); zero at inactive and constrained nodes.
@@ -54,6 +56,11 @@ pub struct View<'a> {
     pub node_acceleration: &'a [f64],
     /// Whether a node is active: not constrained, and mass above the solver's threshold.
     pub node_active: &'a [bool],
+    /// The nodal stiffness `K_N = Σ_p E_p V_p d_p d_pᵀ` of this state, if the stepper
+    /// accumulated it in its particle pass ([`NodalStiffness`]; see
+    /// [`Stepper::provide_nodal_stiffness`]); `None` makes the stability limit assemble it
+    /// from [`View::weights`].
+    pub nodal_stiffness: Option<&'a NodalStiffness>,
 }
 
 impl View<'_> {
@@ -160,4 +167,13 @@ pub trait Stepper {
 
     /// The pending trial state, if any.
     fn trial_view(&self) -> Option<View<'_>>;
+
+    /// Asks the stepper to accumulate the nodal stiffness ([`View::nodal_stiffness`]) in
+    /// the states it computes from now on (`true`) or to stop (`false`); returns whether it
+    /// does. The controller asks when one of its limits reads it
+    /// ([`crate::StepLimit::reads_nodal_stiffness`]). The default does not provide it.
+    fn provide_nodal_stiffness(&mut self, on: bool) -> bool {
+        let _ = on;
+        false
+    }
 }

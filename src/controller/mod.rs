@@ -380,6 +380,10 @@ impl Controller {
         let step = stepper.step_count();
         let span = tracing::info_span!("step", step, t);
         let _enter = span.enter();
+        if self.limits.iter().any(|l| l.reads_nodal_stiffness()) {
+            // Cheap to repeat: a stepper that already provides it just keeps its flag.
+            stepper.provide_nodal_stiffness(true);
+        }
         let mut decisions: Vec<Decision> = Vec::new();
         let mut retry_cap: Option<f64> = None;
         let mut rejections: u32 = 0;

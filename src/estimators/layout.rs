@@ -118,7 +118,7 @@ impl<'a> Layout<'a> {
             .zip(view.volume0)
             .map(|(f, v)| f * v)
             .collect();
-        let mut layout = Self::new(view.grid, view.weights, view.x, view.mass, &volume)?;
+        let mut layout = Self::new(view.grid, view.weights.get(), view.x, view.mass, &volume)?;
         if view.node_active.len() != layout.node_active.len() {
             return Err(EstimatorError::Length {
                 field: "node_active",

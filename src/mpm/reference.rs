@@ -7,6 +7,7 @@ use super::step::{advance, deposit_state, Ctx, Failure, Workspace};
 use crate::grid::Grid;
 use crate::shape::Shape;
 use crate::stepper::{StepError, Stepper, View};
+use crate::view_weights::ViewWeights;
 use serde::{Deserialize, Serialize};
 
 /// Nodes whose mass is at most this fraction of the mean nodal mass `M/N` (total particle
@@ -55,6 +56,9 @@ pub struct ReferenceStepper {
     trial: State,
     trial_pending: bool,
     workspace: Workspace,
+    /// Whether the particle pass accumulates the nodal stiffness
+    /// ([`Stepper::provide_nodal_stiffness`]).
+    stiffness: bool,
 }
 
 impl ReferenceStepper {
@@ -95,6 +99,7 @@ impl ReferenceStepper {
                 volume0: &volume0,
                 width: &width,
                 threshold,
+                stiffness: false,
             };
             deposit_state(&ctx, &mut workspace, &mut committed);
         }
@@ -118,6 +123,7 @@ impl ReferenceStepper {
             trial,
             trial_pending: false,
             workspace,
+            stiffness: false,
         })
     }
 
@@ -248,11 +254,12 @@ impl ReferenceStepper {
             mass: &self.mass,
             tangent_modulus: s.tangent_modulus(&self.material),
             density: s.density(&self.mass, &self.volume0),
-            weights: s.weights(&self.grid, self.shape, &self.width),
+            weights: ViewWeights::deferred(&s.weights, &self.grid, self.shape, &s.x, &self.width),
             node_mass: &s.node_mass,
             node_velocity: &s.node_velocity,
             node_acceleration: &s.node_acceleration,
             node_active: s.node_active(&self.grid, self.threshold),
+            nodal_stiffness: s.stiffness_valid.then_some(&s.stiffness),
         }
     }
 }
@@ -280,6 +287,7 @@ impl Stepper for ReferenceStepper {
             volume0: &self.volume0,
             width: &self.width,
             threshold: self.threshold,
+            stiffness: self.stiffness,
         };
         self.trial.invalidate();
         let result = advance(
@@ -346,5 +354,27 @@ impl Stepper for ReferenceStepper {
 
     fn trial_view(&self) -> Option<View<'_>> {
         self.trial_pending.then(|| self.state_view(&self.trial))
+    }
+
+    /// Accumulates `K_N` in the deposit of every step (six products per particle, from the
+    /// stencils the deposit evaluates anyway). Switching it on also computes it for the
+    /// committed state, by the set-up deposit, whose nodal sums are bit-identical to the
+    /// step's (the checkpoint restart relies on the same fact).
+    fn provide_nodal_stiffness(&mut self, on: bool) -> bool {
+        self.stiffness = on;
+        if on && !self.committed.stiffness_valid {
+            let ctx = Ctx {
+                grid: &self.grid,
+                shape: self.shape,
+                material: self.material,
+                mass: &self.mass,
+                volume0: &self.volume0,
+                width: &self.width,
+                threshold: self.threshold,
+                stiffness: true,
+            };
+            deposit_state(&ctx, &mut self.workspace, &mut self.committed);
+        }
+        true
     }
 }

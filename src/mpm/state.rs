@@ -9,9 +9,9 @@
 
 use super::material::Material;
 use crate::grid::Grid;
-use crate::shape::Shape;
-use crate::weights::Weights;
-use std::cell::{Cell, OnceCell};
+use crate::nodal_stiffness::NodalStiffness;
+use crate::view_weights::WeightsCache;
+use std::cell::OnceCell;
 
 /// Particle and nodal fields of one state, plus lazily computed observer data.
 #[derive(Clone, Debug, Default)]
@@ -25,9 +25,12 @@ pub(crate) struct State {
     pub node_mass: Vec<f64>,
     pub node_velocity: Vec<f64>,
     pub node_acceleration: Vec<f64>,
-    weights: OnceCell<Weights>,
-    /// The storage of the last dropped `weights`, reused by the next computation.
-    spare_weights: Spare,
+    /// `S`, `D` at `x`, computed when a view's weights are first read.
+    pub weights: WeightsCache,
+    /// The nodal stiffness `K_N` at `x`, valid when the pass that wrote this state
+    /// accumulated it.
+    pub stiffness: NodalStiffness,
+    pub stiffness_valid: bool,
     tangent_modulus: OnceCell<Vec<f64>>,
     density: OnceCell<Vec<f64>>,
     node_active: OnceCell<Vec<bool>>,
@@ -50,21 +53,10 @@ impl State {
 
     /// Drops the lazily computed data (call before overwriting the fields).
     pub fn invalidate(&mut self) {
-        if let Some(w) = self.weights.take() {
-            *self.spare_weights.0.get_mut() = Some(w);
-        }
+        self.weights.invalidate();
         self.tangent_modulus.take();
         self.density.take();
         self.node_active.take();
-    }
-
-    /// `S`, `D` at this state's positions.
-    pub fn weights(&self, grid: &Grid, shape: Shape, width: &[f64]) -> &Weights {
-        self.weights.get_or_init(|| {
-            let mut w = self.spare_weights.0.take().unwrap_or_default();
-            w.compute_into(grid, shape, &self.x, width);
-            w
-        })
     }
 
     /// `E_t(F_p)` per particle.
@@ -97,22 +89,6 @@ impl State {
                 .map(|(i, &m)| is_active(grid, i, m, threshold))
                 .collect()
         })
-    }
-}
-
-/// Storage kept for reuse; a clone starts without it (it holds no state).
-#[derive(Default)]
-struct Spare(Cell<Option<Weights>>);
-
-impl std::fmt::Debug for Spare {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str("Spare")
-    }
-}
-
-impl Clone for Spare {
-    fn clone(&self) -> Self {
-        Self::default()
     }
 }
 

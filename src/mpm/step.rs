@@ -84,6 +84,9 @@ pub(crate) struct Ctx<'a> {
     pub width: &'a [f64],
     /// Nodal mass at or below which a node is inactive.
     pub threshold: f64,
+    /// Whether the deposit also accumulates the nodal stiffness `K_N` (eq 56 via
+    /// [`crate::NodalStiffness`]) of the new state.
+    pub stiffness: bool,
 }
 
 /// Scratch arrays on the extended lattice, allocated once per solver.
@@ -94,6 +97,9 @@ pub(crate) struct Workspace {
     /// `(m_i, p_i, f_i, 0)` accumulated by the deposit (padded to 32 bytes: one vector
     /// add per node).
     acc: Vec<[f64; 4]>,
+    /// `(K_N(j, j), K_N(j, j+1), K_N(j, j+2), 0)` accumulated by the deposit when
+    /// [`Ctx::stiffness`] is set (zero otherwise).
+    band: Vec<[f64; 4]>,
 }
 
 impl Workspace {
@@ -102,6 +108,7 @@ impl Workspace {
         Self {
             gather: vec![[0.0; 2]; n],
             acc: vec![[0.0; 4]; n],
+            band: vec![[0.0; 4]; n],
         }
     }
 }
@@ -165,6 +172,56 @@ fn deposit(
     }
 }
 
+/// Adds one particle's `k d dᵀ` (`k = E_t F V⁰`, `d` its `D_ip`) to the stiffness band:
+/// node `base + a` gets `k d_a (d_a, d_{a+1}, d_{a+2})`.
+#[inline(always)]
+fn deposit_band(band: &mut [[f64; 4]], d: &[f64; MAX_NODES], base: usize, k: f64) {
+    let slots = &mut band[base..base + MAX_NODES];
+    let ext = [d[0], d[1], d[2], 0.0, 0.0, 0.0];
+    for (a, slot) in slots.iter_mut().enumerate() {
+        let kd = k * ext[a];
+        for o in 0..3 {
+            slot[o] += kd * ext[a + o];
+        }
+    }
+}
+
+/// Folds the stiffness band onto the stored nodes into `to.stiffness` (band storage of
+/// [`crate::NodalStiffness`]) and zeroes it. Periodic images fold like the accumulators: the
+/// pair `(j, j+o)` of an image slot is the pair `(i, i+o mod N)` of its node.
+fn finalize_band(ctx: &Ctx<'_>, band: &mut [[f64; 4]], c2_ref: f64, to: &mut State) {
+    let grid = ctx.grid;
+    let n_nodes = grid.n_nodes();
+    let offset = match grid.boundary {
+        Boundary::Periodic => {
+            for e in [0, n_nodes + 1, n_nodes + 2, n_nodes + 3] {
+                if let Some(i) = ext_to_storage(grid, e) {
+                    let b = std::mem::take(&mut band[e]);
+                    let slot = &mut band[i + 1];
+                    for k in 0..3 {
+                        slot[k] += b[k];
+                    }
+                }
+            }
+            1
+        }
+        Boundary::Fixed => {
+            band[n_nodes] = [0.0; 4];
+            0
+        }
+    };
+    let k = &mut to.stiffness;
+    k.diag.clear();
+    k.off.clear();
+    for slot in &mut band[offset..offset + n_nodes] {
+        let [d, o1, o2, _] = std::mem::take(slot);
+        k.diag.push(d);
+        k.off.push([o1, o2]);
+    }
+    k.c2_ref = c2_ref;
+    to.stiffness_valid = true;
+}
+
 /// Folds the accumulators onto the stored nodes, computes `m_i`, `v_i = p_i/m_i`,
 /// `a_i = f_i/m_i` (zero at inactive and constrained nodes) and leaves the accumulators
 /// zeroed for the next deposit, in one pass over the nodes.
@@ -215,6 +272,8 @@ fn finalize(ctx: &Ctx<'_>, acc: &mut [[f64; 4]], to: &mut State) {
 /// once at set-up; the step does this inside its particle pass.
 pub(crate) fn deposit_state(ctx: &Ctx<'_>, ws: &mut Workspace, state: &mut State) {
     ws.acc.fill([0.0; 4]);
+    ws.band.fill([0.0; 4]);
+    let mut c2_ref = 0.0_f64;
     let (inv_h, origin) = (1.0 / ctx.grid.h, ctx.grid.origin);
     let max_base = (ext_len(ctx.grid) - MAX_NODES) as i64;
     for p in 0..state.x.len() {
@@ -223,8 +282,19 @@ pub(crate) fn deposit_state(ctx: &Ctx<'_>, ws: &mut Workspace, state: &mut State
         let m = ctx.mass[p];
         let sfv = state.sigma[p] * state.f[p] * ctx.volume0[p];
         deposit(&mut ws.acc, &st.s, &st.d, base, m, m * state.v[p], sfv);
+        if ctx.stiffness {
+            let f = state.f[p];
+            let k = ctx.material.tangent_modulus(f) * f * ctx.volume0[p];
+            c2_ref = c2_ref.max(k / m);
+            deposit_band(&mut ws.band, &st.d, base, k);
+        }
     }
     finalize(ctx, &mut ws.acc, state);
+    if ctx.stiffness {
+        finalize_band(ctx, &mut ws.band, c2_ref, state);
+    } else {
+        state.stiffness_valid = false;
+    }
 }
 
 /// One trial step of size `dt` from `from` into `to` (see the module docs). `to`'s
@@ -255,11 +325,19 @@ pub(crate) fn advance(
     if let Some(failure) = first_failure(&flags, to) {
         // Leave the accumulators clean for the next attempt.
         ws.acc.fill([0.0; 4]);
+        if ctx.stiffness {
+            ws.band.fill([0.0; 4]);
+        }
         return Err(failure);
     }
 
     // 3. Grid finalize of the trial state.
     finalize(ctx, &mut ws.acc, to);
+    if ctx.stiffness {
+        finalize_band(ctx, &mut ws.band, flags.c2_ref, to);
+    } else {
+        to.stiffness_valid = false;
+    }
     Ok(())
 }
 
@@ -398,6 +476,8 @@ struct PassFlags {
     maybe_non_finite: bool,
     first_inverted: Option<usize>,
     first_out: Option<usize>,
+    /// `max_p E_t,p/ρ_p` of the trial when the stiffness is accumulated (else 0).
+    c2_ref: f64,
 }
 
 /// The stencils of one block in structure-of-arrays form, so that evaluating them is a
@@ -503,9 +583,12 @@ where
     let upper = origin + length;
     let gather = ws.gather.as_slice();
     let acc = ws.acc.as_mut_slice();
+    let band = ws.band.as_mut_slice();
+    let (stiffness, material) = (ctx.stiffness, ctx.material);
+    let mut c2_ref = 0.0_f64;
     // From the slice lengths (both `ext_len`), so that the compiler sees every
     // `base..base + MAX_NODES` in bounds.
-    let max_base = (gather.len().min(acc.len()) - MAX_NODES) as i64;
+    let max_base = (gather.len().min(acc.len()).min(band.len()) - MAX_NODES) as i64;
 
     let n = from.x.len();
     let (x0, v0, s0, f0) = (&from.x[..n], &from.v[..n], &from.sigma[..n], &from.f[..n]);
@@ -600,6 +683,16 @@ where
             let sfv = s1[i] * f1[i] * vol0[i];
             deposit(acc, &stencils.s(i), &stencils.d(i), base, m, m * v1[i], sfv);
         }
+        // The nodal stiffness of the new state (eq 56), from the same stencils.
+        if stiffness {
+            for i in 0..len {
+                let base = base_slot(stencils.first[i] as i64, max_base);
+                let f = f1[i];
+                let k = material.tangent_modulus(f) * f * vol0[i];
+                c2_ref = c2_ref.max(k / mass[i]);
+                deposit_band(band, &stencils.d(i), base, k);
+            }
+        }
         start = end;
     }
     let first_inverted = if any_inverted {
@@ -616,5 +709,6 @@ where
         maybe_non_finite,
         first_inverted,
         first_out,
+        c2_ref,
     }
 }

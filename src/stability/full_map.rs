@@ -126,7 +126,7 @@ impl FullMap {
     pub fn new(view: &View<'_>) -> Result<Self, StabilityError> {
         check_view(view)?;
         let frozen = Frozen {
-            weights: view.weights,
+            weights: view.weights.get(),
             mass: view.mass.to_vec(),
             volume: view
                 .f

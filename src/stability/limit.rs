@@ -373,6 +373,11 @@ impl StepLimit for Stability {
         "stability"
     }
 
+    /// The λmax update reads `K_N` from the view when the stepper provides it.
+    fn reads_nodal_stiffness(&self) -> bool {
+        true
+    }
+
     /// Multiplies the safety factor by `factor` (ignored unless `0 < factor ≤ 1`).
     fn scale_safety(&mut self, factor: f64) {
         if factor > 0.0 && factor <= 1.0 {

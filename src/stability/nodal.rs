@@ -60,7 +60,9 @@ pub struct NodalOperator {
 }
 
 impl NodalOperator {
-    /// The nodal operator of the state `view`, built from its `D` weights in `O(nnz)`.
+    /// The nodal operator of the state `view`: from the stepper's [`crate::NodalStiffness`]
+    /// when the view carries one (`O(n_nodes)`), else assembled from its `D` weights in
+    /// `O(nnz)`.
     /// Fails with a typed error on NaN or non-positive moduli, volumes, densities, on an
     /// active node with non-positive mass, when no node is active, and when a particle's
     /// stencil couples nodes more than two lattice cells apart (not a 1D MPM stencil).
@@ -77,10 +79,6 @@ impl NodalOperator {
         let periodic = view.grid.boundary == Boundary::Periodic;
         self.periodic = periodic;
         self.h = view.grid.h;
-        self.diag.clear();
-        self.diag.resize(n, 0.0);
-        self.off.clear();
-        self.off.resize(n, [0.0; 2]);
         self.scale.clear();
         self.scale
             .extend(view.node_mass.iter().zip(view.node_active).map(|(&m, &a)| {
@@ -90,6 +88,36 @@ impl NodalOperator {
                     0.0
                 }
             }));
+        match view.nodal_stiffness {
+            Some(k) if k.diag.len() == n && k.off.len() == n => {
+                self.diag.clone_from(&k.diag);
+                self.off.clone_from(&k.off);
+                self.c2_ref = k.c2_ref;
+            }
+            Some(k) => {
+                return Err(StabilityError::LengthMismatch {
+                    field: "nodal_stiffness",
+                    len: k.diag.len().min(k.off.len()),
+                    expected: n,
+                })
+            }
+            None => self.c2_ref = self.assemble(view, n, periodic)?,
+        }
+        self.scale_bands();
+        Ok(())
+    }
+
+    /// `K_N` from the view's `D` weights (one pass over the particles); returns `c²_ref`.
+    fn assemble(
+        &mut self,
+        view: &View<'_>,
+        n: usize,
+        periodic: bool,
+    ) -> Result<f64, StabilityError> {
+        self.diag.clear();
+        self.diag.resize(n, 0.0);
+        self.off.clear();
+        self.off.resize(n, [0.0; 2]);
         let w = view.weights;
         let mut c2_ref = 0.0_f64;
         let (modulus, density) = (view.tangent_modulus, view.density);
@@ -139,9 +167,7 @@ impl NodalOperator {
                 }
             }
         }
-        self.c2_ref = c2_ref;
-        self.scale_bands();
-        Ok(())
+        Ok(c2_ref)
     }
 
     /// Fills the bands of `C` from those of `K_N` and the scale `1/√m_i`.

@@ -77,7 +77,7 @@ impl<'a> Eq56Operator<'a> {
             .map(|(e, r)| e / r)
             .fold(0.0, f64::max);
         Ok(Self {
-            weights: view.weights,
+            weights: view.weights.get(),
             h: view.grid.h,
             scale,
             inv_mass,

@@ -227,11 +227,12 @@ fn view_of<'a>(s: &'a State, grid: &'a Grid, m: &'a MockStepper) -> View<'a> {
         mass: &m.mass,
         tangent_modulus: &s.tangent,
         density: &s.density,
-        weights: &s.weights,
+        weights: (&s.weights).into(),
         node_mass: &s.node_mass,
         node_velocity: &s.node_v,
         node_acceleration: &s.node_a,
         node_active: &s.node_active,
+        nodal_stiffness: None,
     }
 }
 

@@ -81,11 +81,12 @@ impl Fixture {
             mass: &self.mass,
             tangent_modulus: &self.modulus,
             density: &self.density,
-            weights: &self.weights,
+            weights: (&self.weights).into(),
             node_mass: &self.node_mass,
             node_velocity: &self.node_velocity,
             node_acceleration: &self.node_acceleration,
             node_active: &self.node_active,
+            nodal_stiffness: None,
         }
     }
 }
