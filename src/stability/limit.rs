@@ -37,7 +37,8 @@
 //! eigenvector can converge to the old, still-valid eigenpair instead of the new top one; the
 //! cold restarts every 10 updates that rescue every-step tracking then come 10 *updates*, not
 //! 10 steps, apart. Use it on GIMP layouts, where λmax barely moves. (Measured before the
-//! tracker gained its diagonal lower-bound guard, see [`super::lambda_max::WARM_BLEND`].)
+//! tracker gained its diagonal lower-bound guard, see [`super::lambda_max::WARM_BLEND`]; with
+//! it the same cached run finishes, 474 steps and 3 rejections — one scenario, no proof.)
 //!
 //! # Cost, and why eq 58 is checked on a cadence
 //!
