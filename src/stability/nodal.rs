@@ -54,6 +54,8 @@ pub struct NodalOperator {
     /// … and `[C(i, i+1), C(i, i+2)] = K_N(i, i+o)/√(m_i m_{i+o})`, so that an application
     /// is one pass with five products per node.
     c_off: Vec<[f64; 2]>,
+    /// `(i, C_ii)` of the largest diagonal entry (see `diagonal_max`).
+    diag_max: Option<(usize, f64)>,
     periodic: bool,
     h: f64,
     c2_ref: f64,
@@ -176,6 +178,13 @@ impl NodalOperator {
         self.c_diag.clear();
         self.c_diag
             .extend(self.diag.iter().zip(&self.scale).map(|(k, s)| k * s * s));
+        self.diag_max = self.c_diag.iter().copied().enumerate().fold(
+            None,
+            |best: Option<(usize, f64)>, (i, c)| match best {
+                Some((_, b)) if b >= c => best,
+                _ => Some((i, c)),
+            },
+        );
         self.c_off.clear();
         self.c_off.resize(n, [0.0; 2]);
         for i in 0..n {
@@ -328,13 +337,6 @@ impl SymmetricOperator for NodalOperator {
     /// `max_i K_N(i, i)/m_i` over active nodes: the lower bound on `λmax` that catches a mode
     /// localised at a light node (linear hats) which a warm start may not see.
     fn diagonal_max(&self) -> Option<(usize, f64)> {
-        self.c_diag
-            .iter()
-            .copied()
-            .enumerate()
-            .fold(None, |best: Option<(usize, f64)>, (i, c)| match best {
-                Some((_, b)) if b >= c => best,
-                _ => Some((i, c)),
-            })
+        self.diag_max
     }
 }
