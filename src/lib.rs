@@ -9,7 +9,9 @@
 //!
 //! * [`stepper`] — the object-safe [`Stepper`] trait a solver implements: trial step,
 //!   accept, reject (bit-for-bit rollback), and a read-only [`View`] of particle fields,
-//!   nodal fields, material tangent moduli and the weight matrices `S`, `D`.
+//!   nodal fields, material tangent moduli and the weight matrices `S`, `D`
+//!   ([`view_weights`]: ready or computed on first use), and optionally the nodal stiffness
+//!   `K_N` of eq 56 ([`nodal_stiffness`]) accumulated by the solver's own pass.
 //! * [`limit`] — the object-safe [`StepLimit`] trait: propose a step, judge a trial.
 //! * [`grid`], [`shape`], [`weights`] — the 1D background grid, GIMP and linear-hat
 //!   basis functions, and the `S`/`D` matrices in fixed-width particle-major storage.

@@ -7,7 +7,11 @@
 //! exactly as it was, bit for bit, because it was never written).
 //!
 //! The [`View`] is read-only and made of slices, so that any solver — the reference
-//! [`crate::mpm`] solver or a user's own — can expose its fields without copying. A view
+//! [`crate::mpm`] solver or a user's own — can expose its fields without copying. Two parts
+//! are optional work for the solver: the weights may be *deferred* (computed on first use,
+//! [`ViewWeights`]), and a solver may accumulate the nodal stiffness `K_N` of eq 56 in its own
+//! particle→grid pass ([`View::nodal_stiffness`], asked for through
+//! [`Stepper::provide_nodal_stiffness`]) so that the stability limit needs no weights at all. A view
 //! describes one state: particle fields at the particle positions, the weights `S`, `D`
 //! evaluated *at those positions*, and the nodal fields obtained from them by eq 7 (mass),
 //! eq 17 (velocity) and eq 18 (acceleration). These are exactly the quantities the next step
@@ -46,7 +50,7 @@ pub struct View<'a> {
     /// Current density `ρ_p = m_p/(F_p V_p⁰)`.
     pub density: &'a [f64],
     /// `S_ip` and `D_ip` at the particle positions of this state, ready or computed on first
-    /// use ([`ViewWeights`]; dereferences to [`Weights`]).
+    /// use ([`ViewWeights`]; dereferences to [`crate::Weights`]).
     pub weights: ViewWeights<'a>,
     /// Nodal masses `m_i` (eq 7).
     pub node_mass: &'a [f64],
