@@ -241,6 +241,20 @@ impl ReferenceStepper {
             .sum()
     }
 
+    /// The kernel's view of the run's constants.
+    fn ctx(&self, stiffness: bool) -> Ctx<'_> {
+        Ctx {
+            grid: &self.grid,
+            shape: self.shape,
+            material: self.material,
+            mass: &self.mass,
+            volume0: &self.volume0,
+            width: &self.width,
+            threshold: self.threshold,
+            stiffness,
+        }
+    }
+
     fn state_view<'a>(&'a self, s: &'a State) -> View<'a> {
         View {
             t: s.t,
@@ -279,24 +293,20 @@ impl Stepper for ReferenceStepper {
         if !(dt.is_finite() && dt > 0.0) {
             return Err(StepError::InvalidDt { dt, t });
         }
-        let ctx = Ctx {
-            grid: &self.grid,
-            shape: self.shape,
-            material: self.material,
-            mass: &self.mass,
-            volume0: &self.volume0,
-            width: &self.width,
-            threshold: self.threshold,
-            stiffness: self.stiffness,
-        };
         self.trial.invalidate();
+        // The scratch and the trial are moved out so that the context can borrow `self`.
+        let (mut workspace, mut trial) = (
+            std::mem::take(&mut self.workspace),
+            std::mem::take(&mut self.trial),
+        );
         let result = advance(
-            &ctx,
-            &mut self.workspace,
+            &self.ctx(self.stiffness),
+            &mut workspace,
             &self.committed,
-            &mut self.trial,
+            &mut trial,
             dt,
         );
+        (self.workspace, self.trial) = (workspace, trial);
         match result {
             Ok(()) => {
                 self.trial.t = t + dt;
@@ -363,17 +373,12 @@ impl Stepper for ReferenceStepper {
     fn provide_nodal_stiffness(&mut self, on: bool) -> bool {
         self.stiffness = on;
         if on && !self.committed.stiffness_valid {
-            let ctx = Ctx {
-                grid: &self.grid,
-                shape: self.shape,
-                material: self.material,
-                mass: &self.mass,
-                volume0: &self.volume0,
-                width: &self.width,
-                threshold: self.threshold,
-                stiffness: true,
-            };
-            deposit_state(&ctx, &mut self.workspace, &mut self.committed);
+            let (mut workspace, mut committed) = (
+                std::mem::take(&mut self.workspace),
+                std::mem::take(&mut self.committed),
+            );
+            deposit_state(&self.ctx(true), &mut workspace, &mut committed);
+            (self.workspace, self.committed) = (workspace, committed);
         }
         true
     }

@@ -186,30 +186,38 @@ fn deposit_band(band: &mut [[f64; 4]], d: &[f64; MAX_NODES], base: usize, k: f64
     }
 }
 
-/// Folds the stiffness band onto the stored nodes into `to.stiffness` (band storage of
-/// [`crate::NodalStiffness`]) and zeroes it. Periodic images fold like the accumulators: the
-/// pair `(j, j+o)` of an image slot is the pair `(i, i+o mod N)` of its node.
-fn finalize_band(ctx: &Ctx<'_>, band: &mut [[f64; 4]], c2_ref: f64, to: &mut State) {
-    let grid = ctx.grid;
+/// Folds the image slots of a periodic grid's extended lattice (lattice −1, N, N+1, N+2)
+/// onto their nodes, or clears the spare last slot of a fixed grid (it only ever receives zero
+/// weights), and returns the slot of stored node 0: 1 (periodic, lattice `j = i`) or 0 (fixed,
+/// storage order). Lanes are added one by one, in the same order for every accumulator.
+fn fold_images(grid: &Grid, slots: &mut [[f64; 4]]) -> usize {
     let n_nodes = grid.n_nodes();
-    let offset = match grid.boundary {
+    match grid.boundary {
         Boundary::Periodic => {
             for e in [0, n_nodes + 1, n_nodes + 2, n_nodes + 3] {
                 if let Some(i) = ext_to_storage(grid, e) {
-                    let b = std::mem::take(&mut band[e]);
-                    let slot = &mut band[i + 1];
+                    let a = std::mem::take(&mut slots[e]);
+                    let slot = &mut slots[i + 1];
                     for k in 0..3 {
-                        slot[k] += b[k];
+                        slot[k] += a[k];
                     }
                 }
             }
             1
         }
         Boundary::Fixed => {
-            band[n_nodes] = [0.0; 4];
+            slots[n_nodes] = [0.0; 4];
             0
         }
-    };
+    }
+}
+
+/// Folds the stiffness band onto the stored nodes into `to.stiffness` (band storage of
+/// [`crate::NodalStiffness`]) and zeroes it. Periodic images fold like the accumulators: the
+/// pair `(j, j+o)` of an image slot is the pair `(i, i+o mod N)` of its node.
+fn finalize_band(ctx: &Ctx<'_>, band: &mut [[f64; 4]], c2_ref: f64, to: &mut State) {
+    let n_nodes = ctx.grid.n_nodes();
+    let offset = fold_images(ctx.grid, band);
     let k = &mut to.stiffness;
     k.diag.clear();
     k.off.clear();
@@ -228,27 +236,7 @@ fn finalize_band(ctx: &Ctx<'_>, band: &mut [[f64; 4]], c2_ref: f64, to: &mut Sta
 fn finalize(ctx: &Ctx<'_>, acc: &mut [[f64; 4]], to: &mut State) {
     let grid = ctx.grid;
     let n_nodes = grid.n_nodes();
-    // Slot of stored node i: i + 1 (periodic: lattice j = i) or i (fixed: storage order).
-    let offset = match grid.boundary {
-        Boundary::Periodic => {
-            // Fold the image slots (lattice −1, N, N+1, N+2) onto their nodes.
-            for e in [0, n_nodes + 1, n_nodes + 2, n_nodes + 3] {
-                if let Some(i) = ext_to_storage(grid, e) {
-                    let a = std::mem::take(&mut acc[e]);
-                    let slot = &mut acc[i + 1];
-                    slot[0] += a[0];
-                    slot[1] += a[1];
-                    slot[2] += a[2];
-                }
-            }
-            1
-        }
-        // The spare last slot only ever receives zero weights.
-        Boundary::Fixed => {
-            acc[n_nodes] = [0.0; 4];
-            0
-        }
-    };
+    let offset = fold_images(grid, acc);
     let nodes = to
         .node_mass
         .iter_mut()

@@ -297,7 +297,7 @@ impl LambdaMaxTracker {
         let start = if warm {
             let mut start = std::mem::take(&mut self.vector);
             if self.work.cold.len() != n {
-                self.work.cold = unit_cold_start(op);
+                self.work.cold = op.checkerboard_start();
             }
             blend(&mut start, &self.work.cold, WARM_BLEND);
             start
@@ -313,7 +313,7 @@ impl LambdaMaxTracker {
                 let mut start = vec![0.0; n];
                 start[i] = 1.0;
                 if self.work.cold.len() != n {
-                    self.work.cold = unit_cold_start(op);
+                    self.work.cold = op.checkerboard_start();
                 }
                 blend(&mut start, &self.work.cold, WARM_BLEND);
                 let (local, local_vec) = lanczos(op, start, config, false, &mut self.work)?;
@@ -378,24 +378,15 @@ impl LambdaMaxTracker {
 /// an unchanged state took 3 applications instead of 1).
 pub const WARM_BLEND: f64 = 1e-3;
 
-/// `start ← start + weight · unit` in one pass. `start` is the tracker's Ritz vector (unit
-/// norm, as [`lanczos`] returns it) or a unit vector `e_i`, and `unit` the cached cold start
-/// scaled to unit norm, so the blend needs no norms (the iteration normalises its start).
-fn blend(start: &mut [f64], unit: &[f64], weight: f64) {
-    for (s, o) in start.iter_mut().zip(unit) {
-        *s += weight * o;
+/// `start ← start/‖start‖ + weight · other/‖other‖` (unchanged parts if a norm is zero).
+fn blend(start: &mut [f64], other: &[f64], weight: f64) {
+    let ns = dot(start, start).sqrt();
+    let no = dot(other, other).sqrt();
+    if !(ns > 0.0 && no > 0.0 && ns.is_finite() && no.is_finite()) {
+        return;
     }
-}
-
-/// The cold start of `op` scaled to unit norm (for [`blend`]); empty if it is zero.
-fn unit_cold_start<O: SymmetricOperator + ?Sized>(op: &O) -> Vec<f64> {
-    let mut v = op.checkerboard_start();
-    let norm = dot(&v, &v).sqrt();
-    if norm > 0.0 && norm.is_finite() {
-        v.iter_mut().for_each(|x| *x /= norm);
-        v
-    } else {
-        Vec::new()
+    for (s, o) in start.iter_mut().zip(other) {
+        *s = *s / ns + weight * o / no;
     }
 }
 
@@ -533,18 +524,15 @@ fn lanczos<O: SymmetricOperator + ?Sized>(
         }
     }
     let (theta, y, residual) = best;
-    // The unit Ritz vector x = Σ_j y_j q_j: one pass over the basis, its norm in the same
-    // pass, then the scaling.
     let mut x = start;
     x.resize(n, 0.0);
-    let basis = &basis[..y.len().min(basis.len())];
-    let mut nx2 = 0.0;
-    for (i, xi) in x.iter_mut().enumerate() {
-        let v: f64 = y.iter().zip(basis).map(|(yj, q)| yj * q[i]).sum();
-        *xi = v;
-        nx2 += v * v;
+    x.iter_mut().for_each(|v| *v = 0.0);
+    for (yj, q) in y.iter().zip(basis.iter()) {
+        for (xi, qi) in x.iter_mut().zip(q) {
+            *xi += yj * qi;
+        }
     }
-    let nx = nx2.sqrt();
+    let nx = dot(&x, &x).sqrt();
     if nx > 0.0 {
         x.iter_mut().for_each(|v| *v /= nx);
     }
