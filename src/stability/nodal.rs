@@ -34,19 +34,18 @@
 use super::error::{check_view, StabilityError};
 use super::lambda_max::SymmetricOperator;
 use crate::grid::Boundary;
+use crate::nodal_stiffness::NodalStiffness;
 use crate::stepper::View;
 
 /// The nodal form `C = M^{1/2} K_N M^{1/2}` of the eq 56 operator on one state (module docs).
 ///
-/// `K_N` is stored as three bands on the nodes: the diagonal and the couplings to the next
-/// node and the one after (`K_N(i, i+1)`, `K_N(i, i+2)`, wrapped on periodic grids).
+/// `C` is stored as three bands on the nodes ([`NodalStiffness`]'s layout): the diagonal and
+/// the couplings to the next node and the one after, wrapped on periodic grids. `K_N` itself
+/// is read from the view when the stepper provides it and assembled here only otherwise.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct NodalOperator {
-    /// `K_N(i, i)`.
-    diag: Vec<f64>,
-    /// `[K_N(i, i+1), K_N(i, i+2)]` (indices wrapped on periodic grids; past the last node of
-    /// a fixed grid they are zero).
-    off: Vec<[f64; 2]>,
+    /// `K_N` assembled from the view's weights, when the view does not carry the stepper's.
+    assembled: NodalStiffness,
     /// `1/√m_i` at active nodes, 0 elsewhere.
     scale: Vec<f64>,
     /// The bands of `C` itself: `C_ii = K_N(i, i)/m_i` …
@@ -59,6 +58,50 @@ pub struct NodalOperator {
     periodic: bool,
     h: f64,
     c2_ref: f64,
+}
+
+/// The bands of `C = M^{1/2} K_N M^{1/2}` from `K_N` and `scale = 1/√m` (0 at inactive nodes),
+/// and the largest diagonal entry.
+fn scale_bands(
+    k: &NodalStiffness,
+    scale: &[f64],
+    periodic: bool,
+    c_diag: &mut Vec<f64>,
+    c_off: &mut Vec<[f64; 2]>,
+) -> Option<(usize, f64)> {
+    let n = k.diag.len();
+    c_diag.clear();
+    c_diag.extend(k.diag.iter().zip(scale).map(|(k, s)| k * s * s));
+    c_off.clear();
+    c_off.resize(n, [0.0; 2]);
+    for (i, (c, kk)) in c_off.iter_mut().zip(&k.off).enumerate() {
+        for (o, (c, kk)) in c.iter_mut().zip(kk).enumerate() {
+            if let Some(j) = neighbour(n, periodic, i, o + 1) {
+                *c = kk * scale[i] * scale[j];
+            }
+        }
+    }
+    c_diag
+        .iter()
+        .copied()
+        .enumerate()
+        .fold(None, |best: Option<(usize, f64)>, (i, c)| match best {
+            Some((_, b)) if b >= c => best,
+            _ => Some((i, c)),
+        })
+}
+
+/// Node `i + o` of `n` (wrapped on periodic grids, `None` past a fixed grid's last node).
+#[inline]
+fn neighbour(n: usize, periodic: bool, i: usize, o: usize) -> Option<usize> {
+    let j = i + o;
+    if j < n {
+        Some(j)
+    } else if periodic {
+        Some(j - n)
+    } else {
+        None
+    }
 }
 
 impl NodalOperator {
@@ -90,12 +133,8 @@ impl NodalOperator {
                     0.0
                 }
             }));
-        match view.nodal_stiffness {
-            Some(k) if k.diag.len() == n && k.off.len() == n => {
-                self.diag.clone_from(&k.diag);
-                self.off.clone_from(&k.off);
-                self.c2_ref = k.c2_ref;
-            }
+        let k = match view.nodal_stiffness {
+            Some(k) if k.diag.len() == n && k.off.len() == n => k,
             Some(k) => {
                 return Err(StabilityError::LengthMismatch {
                     field: "nodal_stiffness",
@@ -103,23 +142,32 @@ impl NodalOperator {
                     expected: n,
                 })
             }
-            None => self.c2_ref = self.assemble(view, n, periodic)?,
-        }
-        self.scale_bands();
+            None => {
+                self.assemble(view, n, periodic)?;
+                &self.assembled
+            }
+        };
+        self.c2_ref = k.c2_ref;
+        self.diag_max = scale_bands(k, &self.scale, periodic, &mut self.c_diag, &mut self.c_off);
         Ok(())
     }
 
-    /// `K_N` from the view's `D` weights (one pass over the particles); returns `c²_ref`.
+    /// `K_N` from the view's `D` weights (one pass over the particles) into `self.assembled`.
     fn assemble(
         &mut self,
         view: &View<'_>,
         n: usize,
         periodic: bool,
-    ) -> Result<f64, StabilityError> {
-        self.diag.clear();
-        self.diag.resize(n, 0.0);
-        self.off.clear();
-        self.off.resize(n, [0.0; 2]);
+    ) -> Result<(), StabilityError> {
+        let NodalStiffness {
+            diag,
+            off,
+            c2_ref: c2_out,
+        } = &mut self.assembled;
+        diag.clear();
+        diag.resize(n, 0.0);
+        off.clear();
+        off.resize(n, [0.0; 2]);
         let w = view.weights;
         let mut c2_ref = 0.0_f64;
         let (modulus, density) = (view.tangent_modulus, view.density);
@@ -136,12 +184,12 @@ impl NodalOperator {
                 let next = |i: usize| if i + 1 == n && periodic { 0 } else { i + 1 };
                 if i1 == next(i0) && i2 == next(i1) {
                     let (k0, k1) = (k * d0, k * d1);
-                    self.diag[i0] += k0 * d0;
-                    self.diag[i1] += k1 * d1;
-                    self.diag[i2] += k * d2 * d2;
-                    self.off[i0][0] += k0 * d1;
-                    self.off[i0][1] += k0 * d2;
-                    self.off[i1][0] += k1 * d2;
+                    diag[i0] += k0 * d0;
+                    diag[i1] += k1 * d1;
+                    diag[i2] += k * d2 * d2;
+                    off[i0][0] += k0 * d1;
+                    off[i0][1] += k0 * d2;
+                    off[i1][0] += k1 * d2;
                     continue;
                 }
             }
@@ -152,7 +200,7 @@ impl NodalOperator {
                 }
                 let ia = nodes[a] as usize;
                 let kda = k * da;
-                self.diag[ia] += kda * da;
+                diag[ia] += kda * da;
                 for b in a + 1..nodes.len() {
                     let db = d[b];
                     if db == 0.0 {
@@ -165,35 +213,12 @@ impl NodalOperator {
                             value: nodes[b] as f64,
                         },
                     )?;
-                    self.off[i][o] += kda * db;
+                    off[i][o] += kda * db;
                 }
             }
         }
-        Ok(c2_ref)
-    }
-
-    /// Fills the bands of `C` from those of `K_N` and the scale `1/√m_i`.
-    fn scale_bands(&mut self) {
-        let n = self.diag.len();
-        self.c_diag.clear();
-        self.c_diag
-            .extend(self.diag.iter().zip(&self.scale).map(|(k, s)| k * s * s));
-        self.diag_max = self.c_diag.iter().copied().enumerate().fold(
-            None,
-            |best: Option<(usize, f64)>, (i, c)| match best {
-                Some((_, b)) if b >= c => best,
-                _ => Some((i, c)),
-            },
-        );
-        self.c_off.clear();
-        self.c_off.resize(n, [0.0; 2]);
-        for i in 0..n {
-            for o in 0..2 {
-                if let Some(j) = self.neighbour(i, o + 1) {
-                    self.c_off[i][o] = self.off[i][o] * self.scale[i] * self.scale[j];
-                }
-            }
-        }
+        *c2_out = c2_ref;
+        Ok(())
     }
 
     /// Grid spacing `h`.
@@ -204,26 +229,6 @@ impl NodalOperator {
     /// `c²_ref = max_p E_p/ρ_p` (the normalisation of [`super::Eq56Operator::normalised`]).
     pub fn c2_ref(&self) -> f64 {
         self.c2_ref
-    }
-
-    /// The nodal stiffness `K_N(i, j)` for `|i − j| ≤ 2` (lattice distance, wrapped on
-    /// periodic grids), 0 otherwise. For tests and diagnostics.
-    pub fn stiffness(&self, i: usize, j: usize) -> f64 {
-        let n = self.diag.len();
-        if i == j {
-            return self.diag[i];
-        }
-        [(i, j), (j, i)]
-            .into_iter()
-            .filter_map(|(a, b)| {
-                let o = if self.periodic {
-                    (b + n - a) % n
-                } else {
-                    b.wrapping_sub(a)
-                };
-                (1..=2).contains(&o).then(|| self.off[a][o - 1])
-            })
-            .sum()
     }
 
     /// A rigorous upper bound on `λmax(C) = λmax(B)` by Gershgorin's theorem on `C`:
@@ -246,15 +251,7 @@ impl NodalOperator {
     /// Node `i + o` (wrapped on periodic grids, `None` past a fixed grid's last node).
     #[inline]
     fn neighbour(&self, i: usize, o: usize) -> Option<usize> {
-        let n = self.diag.len();
-        let j = i + o;
-        if j < n {
-            Some(j)
-        } else if self.periodic {
-            Some(j - n)
-        } else {
-            None
-        }
+        neighbour(self.c_diag.len(), self.periodic, i, o)
     }
 }
 
@@ -275,7 +272,7 @@ fn band_slot(a: usize, b: usize, n: usize, periodic: bool) -> Option<(usize, usi
 
 impl SymmetricOperator for NodalOperator {
     fn dim(&self) -> usize {
-        self.diag.len()
+        self.c_diag.len()
     }
 
     /// `y = C x = M^{1/2} K_N M^{1/2} x` in one pass of five products per node (`work` is
