@@ -9,10 +9,10 @@
 //! The [`View`] is read-only and made of slices, so that any solver — the reference
 //! [`crate::mpm`] solver or a user's own — can expose its fields without copying. Two parts
 //! are optional work for the solver: the weights may be *deferred* (computed on first use,
-//! [`ViewWeights`]), and a solver may accumulate the nodal stiffness `K_N` of eq 56 in its own
-//! particle→grid pass ([`View::nodal_stiffness`], asked for through
-//! [`Stepper::provide_nodal_stiffness`]) so that the stability limit needs no weights at all. A view
-//! describes one state: particle fields at the particle positions, the weights `S`, `D`
+//! [`ViewWeights`]), and a solver may accumulate the nodal stiffness `K_N` of eq 56 in its
+//! own particle→grid pass ([`View::nodal_stiffness`], asked for through
+//! [`Stepper::provide_nodal_stiffness`]) so that the stability limit needs no weights at
+//! all. A view describes one state: particle fields at the particle positions, the weights `S`, `D`
 //! evaluated *at those positions*, and the nodal fields obtained from them by eq 7 (mass),
 //! eq 17 (velocity) and eq 18 (acceleration). These are exactly the quantities the next step
 //! from that state uses, and what the estimators of Section 4 and the stability analysis of

@@ -162,7 +162,8 @@ struct Windows {
 pub struct GrowthMonitor {
     config: GrowthConfig,
     state: Windows,
-    /// The indicator of the last judged trial `(t, dt, value)`, reused by `accepted` when
+    /// The indicator (and confirming energy) of the last judged trial
+    /// `(t, dt, value, energy)`, reused by `accepted` when
     /// it is called for that trial (same start time and step, compared bit for bit), so the
     /// indicator is computed once per accepted step, not twice.
     judged: Option<(f64, f64, f64, Option<f64>)>,

@@ -172,6 +172,13 @@ fn deposit(
     }
 }
 
+/// A particle's weight in `K_N`, `k = E_t(F) F V⁰`, and its `E_t/ρ = k/m` (for `c²_ref`).
+#[inline(always)]
+fn stiffness_weight(material: Material, f: f64, volume0: f64, mass: f64) -> (f64, f64) {
+    let k = material.tangent_modulus(f) * f * volume0;
+    (k, k / mass)
+}
+
 /// Adds one particle's `k d dᵀ` (`k = E_t F V⁰`, `d` its `D_ip`) to the stiffness band:
 /// node `base + a` gets `k d_a (d_a, d_{a+1}, d_{a+2})`.
 #[inline(always)]
@@ -215,7 +222,12 @@ fn fold_images(grid: &Grid, slots: &mut [[f64; 4]]) -> usize {
 /// Folds the stiffness band onto the stored nodes into `to.stiffness` (band storage of
 /// [`crate::NodalStiffness`]) and zeroes it. Periodic images fold like the accumulators: the
 /// pair `(j, j+o)` of an image slot is the pair `(i, i+o mod N)` of its node.
+/// Without [`Ctx::stiffness`] it only marks the state's `K_N` as not provided.
 fn finalize_band(ctx: &Ctx<'_>, band: &mut [[f64; 4]], c2_ref: f64, to: &mut State) {
+    if !ctx.stiffness {
+        to.stiffness_valid = false;
+        return;
+    }
     let n_nodes = ctx.grid.n_nodes();
     let offset = fold_images(ctx.grid, band);
     let k = &mut to.stiffness;
@@ -271,18 +283,13 @@ pub(crate) fn deposit_state(ctx: &Ctx<'_>, ws: &mut Workspace, state: &mut State
         let sfv = state.sigma[p] * state.f[p] * ctx.volume0[p];
         deposit(&mut ws.acc, &st.s, &st.d, base, m, m * state.v[p], sfv);
         if ctx.stiffness {
-            let f = state.f[p];
-            let k = ctx.material.tangent_modulus(f) * f * ctx.volume0[p];
-            c2_ref = c2_ref.max(k / m);
+            let (k, c2) = stiffness_weight(ctx.material, state.f[p], ctx.volume0[p], m);
+            c2_ref = c2_ref.max(c2);
             deposit_band(&mut ws.band, &st.d, base, k);
         }
     }
     finalize(ctx, &mut ws.acc, state);
-    if ctx.stiffness {
-        finalize_band(ctx, &mut ws.band, c2_ref, state);
-    } else {
-        state.stiffness_valid = false;
-    }
+    finalize_band(ctx, &mut ws.band, c2_ref, state);
 }
 
 /// One trial step of size `dt` from `from` into `to` (see the module docs). `to`'s
@@ -321,11 +328,7 @@ pub(crate) fn advance(
 
     // 3. Grid finalize of the trial state.
     finalize(ctx, &mut ws.acc, to);
-    if ctx.stiffness {
-        finalize_band(ctx, &mut ws.band, flags.c2_ref, to);
-    } else {
-        to.stiffness_valid = false;
-    }
+    finalize_band(ctx, &mut ws.band, flags.c2_ref, to);
     Ok(())
 }
 
@@ -675,9 +678,8 @@ where
         if stiffness {
             for i in 0..len {
                 let base = base_slot(stencils.first[i] as i64, max_base);
-                let f = f1[i];
-                let k = material.tangent_modulus(f) * f * vol0[i];
-                c2_ref = c2_ref.max(k / mass[i]);
+                let (k, c2) = stiffness_weight(material, f1[i], vol0[i], mass[i]);
+                c2_ref = c2_ref.max(c2);
                 deposit_band(band, &stencils.d(i), base, k);
             }
         }

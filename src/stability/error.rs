@@ -374,8 +374,22 @@ fn check_view_exact(view: &crate::stepper::View<'_>) -> Result<(), StabilityErro
             expected: n,
         });
     }
+    if view.weights.n_nodes() != nn {
+        return Err(StabilityError::LengthMismatch {
+            field: "weights (nodes)",
+            len: view.weights.n_nodes(),
+            expected: nn,
+        });
+    }
+    check_nodes(view)
+}
+
+/// The nodal part of [`check_view`]: lengths of the nodal fields, positive finite mass at
+/// every active node, and at least one active node. What a reader of nodal data only (the
+/// stability limit when the stepper provides `K_N`) needs checked.
+pub(crate) fn check_nodes(view: &crate::stepper::View<'_>) -> Result<(), StabilityError> {
+    let nn = view.grid.n_nodes();
     for (field, len) in [
-        ("weights (nodes)", view.weights.n_nodes()),
         ("node_mass", view.node_mass.len()),
         ("node_velocity", view.node_velocity.len()),
         ("node_acceleration", view.node_acceleration.len()),

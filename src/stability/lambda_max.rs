@@ -101,8 +101,8 @@ pub struct LanczosConfig {
     /// converged (default `1e-4`; 0 disables this test). On a moving 10⁵-particle GIMP bar the
     /// top of the spectrum is a cluster of eigenvalues within ~0.5 % of each other whose
     /// Ritz values creep up slowly: at `1e-5` the warm updates of a controlled run took 17.7
-    /// applications per step on average over 400 steps, at `1e-4` 6.7 (`examples`-free
-    /// measurement, see the README). Any member of that cluster gives `dt_eq56` within 0.25 %,
+    /// applications per step on average over 400 steps, at `1e-4` 6.7 (measured with a
+    /// throwaway driver of `Controller::standard` on the controller bench's bar, not kept). Any member of that cluster gives `dt_eq56` within 0.25 %,
     /// far inside the `Stability` limit's safety margin, and the tests compare every warm
     /// update with the dense eigenvalue.
     pub value_tol: f64,

@@ -8,8 +8,9 @@
 //!
 //! `λmax(B)` is tracked by [`LambdaMaxTracker`] on the *nodal* form of the operator,
 //! `C = M^{1/2} K_N M^{1/2}` ([`NodalOperator`], same λmax, `n_nodes` unknowns, banded), warm-
-//! started from the previous eigenvector at every proposal: a proposal is one pass over the
-//! particles' `D` weights to build `K_N` plus a few `O(5 n_nodes)` applications. The eq 58 value is the
+//! started from the previous eigenvector at every proposal: a proposal takes `K_N` from the
+//! stepper (or assembles it from the `D` weights) and runs a few `O(5 n_nodes)` applications.
+//! The eq 58 value is the
 //! [`Bound58Reading::Consistent`] reading in the strain-energy norm (default): it is a true
 //! lower bound on `ρ(A)`, so a value above 1 *proves* the step's stress amplification
 //! unstable — but it stays near 1 while `ρ(A)` grows (see [`mod@super::bound58`]), which is why
@@ -43,9 +44,10 @@
 //! # Cost, and why eq 58 is checked on a cadence
 //!
 //! At 10⁵ particles (GIMP, 2 per cell; `cargo bench --bench stability`, README "Stability")
-//! building `K_N` from a view costs about a third of a reference solver step and each nodal
-//! application a few per cent of one, against a tenth of a step per application of the particle
-//! form before. Eq 58 needs the Section 4 estimates (nodal second and third derivatives of the
+//! assembling `K_N` from a view's weights costs about one reference solver step, which is why
+//! the reference solver accumulates it in its own pass instead (the limit then only scales it,
+//! one pass over the nodes); each nodal application costs 3 % of a step, against 31 % per
+//! application of the particle form. Eq 58 needs the Section 4 estimates (nodal second and third derivatives of the
 //! stress, the weights' moments), about three solver steps per evaluation, while it can only
 //! certify instability (it stays near 1 while `ρ(A)` grows). It is therefore evaluated on the
 //! trial after every [`StabilityConfig::bound58_every`]-th λmax update (default 50: the first

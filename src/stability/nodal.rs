@@ -31,7 +31,7 @@
 //! In 2D/3D the same reduction holds with `K_N` a sparse nodal matrix of the stencil's
 //! bandwidth; only the storage here is 1D.
 
-use super::error::{check_view, StabilityError};
+use super::error::{check_nodes, check_view, StabilityError};
 use super::lambda_max::SymmetricOperator;
 use crate::grid::Boundary;
 use crate::nodal_stiffness::NodalStiffness;
@@ -118,8 +118,25 @@ impl NodalOperator {
     }
 
     /// Rebuilds `self` for the state `view`, reusing its allocations.
+    ///
+    /// Validation follows what is read: with the stepper's `K_N` only the nodal fields and
+    /// `K_N` itself (finite) are checked — the particle fields are neither read here nor
+    /// worth a second full scan per step — otherwise the whole view, as [`Self::new`] describes.
     pub fn rebuild(&mut self, view: &View<'_>) -> Result<(), StabilityError> {
-        check_view(view)?;
+        match view.nodal_stiffness {
+            Some(k) => {
+                check_nodes(view)?;
+                let values = k.diag.iter().chain(k.off.iter().flatten());
+                if let Some((index, &value)) = values.enumerate().find(|(_, v)| !v.is_finite()) {
+                    return Err(StabilityError::InvalidField {
+                        field: "nodal_stiffness",
+                        index,
+                        value,
+                    });
+                }
+            }
+            None => check_view(view)?,
+        }
         let n = view.n_nodes();
         let periodic = view.grid.boundary == Boundary::Periodic;
         self.periodic = periodic;

@@ -16,13 +16,6 @@ use crate::stepper::View;
 use crate::weights::Weights;
 use faer::Mat;
 
-/// Reusable allocations of an [`Eq56Operator`].
-#[derive(Clone, Debug, Default)]
-pub struct OperatorBuffers {
-    scale: Vec<f64>,
-    inv_mass: Vec<f64>,
-}
-
 /// The symmetric form `B` of the eq 56 operator on one state, ready to apply.
 ///
 /// Built from any [`View`]; keeps `s_p = √(E_p V_p)` and `1/m_i` (0 at inactive and
@@ -44,32 +37,19 @@ impl<'a> Eq56Operator<'a> {
     /// moduli, volumes, densities, on an active node with non-positive mass, and when no
     /// node is active.
     pub fn new(view: &View<'a>) -> Result<Self, StabilityError> {
-        Self::new_in(view, OperatorBuffers::default())
-    }
-
-    /// [`Self::new`] reusing the allocations of an earlier operator (see
-    /// [`Self::into_buffers`]): avoids allocating and faulting in fresh pages every step.
-    pub fn new_in(view: &View<'a>, buffers: OperatorBuffers) -> Result<Self, StabilityError> {
         check_view(view)?;
-        let OperatorBuffers {
-            mut scale,
-            mut inv_mass,
-        } = buffers;
-        scale.clear();
-        scale.extend(
-            view.tangent_modulus
-                .iter()
-                .zip(view.f.iter().zip(view.volume0))
-                .map(|(e, (f, v0))| (e * f * v0).sqrt()),
-        );
-        inv_mass.clear();
-        inv_mass.extend(view.node_mass.iter().zip(view.node_active).map(|(&m, &a)| {
-            if a {
-                1.0 / m
-            } else {
-                0.0
-            }
-        }));
+        let scale = view
+            .tangent_modulus
+            .iter()
+            .zip(view.f.iter().zip(view.volume0))
+            .map(|(e, (f, v0))| (e * f * v0).sqrt())
+            .collect();
+        let inv_mass = view
+            .node_mass
+            .iter()
+            .zip(view.node_active)
+            .map(|(&m, &a)| if a { 1.0 / m } else { 0.0 })
+            .collect();
         let c2_ref = view
             .tangent_modulus
             .iter()
@@ -86,14 +66,6 @@ impl<'a> Eq56Operator<'a> {
             f: view.f,
             volume0: view.volume0,
         })
-    }
-
-    /// Gives back the allocations for [`Self::new_in`].
-    pub fn into_buffers(self) -> OperatorBuffers {
-        OperatorBuffers {
-            scale: self.scale,
-            inv_mass: self.inv_mass,
-        }
     }
 
     /// Dimension (number of particles).
