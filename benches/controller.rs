@@ -37,7 +37,9 @@ use mpm_dt::controller::{
 };
 use mpm_dt::mpm::{Material, ReferenceStepper};
 use mpm_dt::problems::StandingWave;
-use mpm_dt::stability::{Refresh, SoundSpeed, SoundSpeedConfig, Stability, StabilityConfig};
+use mpm_dt::stability::{
+    Refresh, SoundSpeed, SoundSpeedConfig, Stability, StabilityConfig, Tracking,
+};
 use mpm_dt::{Boundary, Grid, Shape, StepLimit, Stepper};
 use std::hint::black_box;
 use std::time::Duration;
@@ -139,7 +141,7 @@ fn all_limits() -> Vec<(&'static str, Box<dyn StepLimit>)> {
         Err(e) => panic!("bench set-up failed: {e}"),
     };
     let every_step = match Stability::new(StabilityConfig {
-        refresh: Refresh::every_step(),
+        tracking: Tracking::Lanczos(Refresh::every_step()),
         ..StabilityConfig::default()
     }) {
         Ok(l) => l,

@@ -93,6 +93,15 @@ fn bench(c: &mut Criterion) {
     g.bench_function("nodal_build", |b| {
         b.iter(|| nodal.rebuild(black_box(&view)).expect("valid"))
     });
+    {
+        let lam = LambdaMaxTracker::default()
+            .update(&nodal)
+            .expect("valid")
+            .lambda_b;
+        g.bench_function("certificate_ldlt", |b| {
+            b.iter(|| black_box(nodal.eigenvalues_below(black_box(lam * 1.001))))
+        });
+    }
     let xn = vec![1.0; nodal.dim()];
     let mut yn = vec![0.0; nodal.dim()];
     let mut nwork = Vec::new();

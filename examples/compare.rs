@@ -15,8 +15,10 @@
 //!   (never binding on GIMP layouts at rest; it protects against particles crossing cells
 //!   when `‖v‖_∞` is large), the `Stability` limit (eq 56 tracked λmax, the config's safety,
 //!   0.95 by default), the temporal error limit and the growth monitor.
-//!   `--refresh-cached` switches the stability limit to the opt-in cached λmax refresh
-//!   (`Refresh::cached`) instead of its default update at every step.
+//!   `--tracking MODE` chooses how the stability limit follows λmax: `certified` (default,
+//!   [`Tracking::Certified`]: a rigorous upper bound at every step, re-anchored by Lanczos
+//!   when it drifts), `lanczos` (the Lanczos Ritz value recomputed at every step,
+//!   `Refresh::every_step`) or `lanczos-cached` (`Refresh::cached`).
 //!
 //! A run *blows up* when the stepper returns an error, any particle value is not finite, the
 //! total energy exceeds 10× its initial value, or a deformation gradient `F ≤ 0` — the
@@ -39,7 +41,7 @@
 use mpm_dt::controller::Controller;
 use mpm_dt::mpm::ReferenceStepper;
 use mpm_dt::scenario::{MaterialKind, Scenario};
-use mpm_dt::stability::{Refresh, SoundSpeed, SoundSpeedConfig};
+use mpm_dt::stability::{Refresh, SoundSpeed, SoundSpeedConfig, Tracking};
 use mpm_dt::Stepper;
 use serde::Serialize;
 use std::process::ExitCode;
@@ -51,26 +53,36 @@ const ENERGY_GROWTH: f64 = 10.0;
 /// The fixed multipliers compared.
 const ALPHAS: [f64; 4] = [0.3, 0.4, 0.5, 0.9];
 
-const USAGE: &str = "usage: compare --scenario FILE [--json] [--refresh-cached]";
+const USAGE: &str =
+    "usage: compare --scenario FILE [--json] [--tracking certified|lanczos|lanczos-cached]";
 
 /// Command-line options.
 struct Args {
     scenario: String,
     json: bool,
-    /// Recompute λmax at every step (`Refresh::every_step`) instead of the default policy.
-    refresh_cached: bool,
+    /// How the stability limit tracks λmax (`--tracking`; `None` keeps the scenario's).
+    tracking: Option<(String, Tracking)>,
 }
 
 fn parse_args() -> Result<Args, String> {
     let mut scenario = None;
     let mut json = false;
-    let mut refresh_cached = false;
+    let mut tracking = None;
     let mut it = std::env::args().skip(1);
     while let Some(a) = it.next() {
         match a.as_str() {
             "--scenario" => scenario = Some(it.next().ok_or("--scenario needs a value")?),
             "--json" => json = true,
-            "--refresh-cached" => refresh_cached = true,
+            "--tracking" => {
+                let mode = it.next().ok_or("--tracking needs a value")?;
+                let t = match mode.as_str() {
+                    "certified" => Tracking::default(),
+                    "lanczos" => Tracking::Lanczos(Refresh::every_step()),
+                    "lanczos-cached" => Tracking::Lanczos(Refresh::cached()),
+                    other => return Err(format!("unknown tracking {other}\n{USAGE}")),
+                };
+                tracking = Some((mode, t));
+            }
             "-h" | "--help" => return Err(USAGE.into()),
             other => return Err(format!("unknown argument {other}\n{USAGE}")),
         }
@@ -78,7 +90,7 @@ fn parse_args() -> Result<Args, String> {
     Ok(Args {
         scenario: scenario.ok_or(format!("--scenario is required\n{USAGE}"))?,
         json,
-        refresh_cached,
+        tracking,
     })
 }
 
@@ -201,12 +213,12 @@ fn run_fixed(
 fn run_controller(
     scenario: &Scenario,
     reference: &Reference<'_>,
-    refresh_cached: bool,
+    tracking: Option<Tracking>,
 ) -> Result<PolicyResult, String> {
     let mut config = scenario.controller_config().map_err(|e| e.to_string())?;
-    if refresh_cached {
+    if let Some(tracking) = tracking {
         if let Some(stability) = config.stability.as_mut() {
-            stability.refresh = Refresh::cached();
+            stability.tracking = tracking;
         }
     }
     let mut controller = Controller::standard(config).map_err(|e| e.to_string())?;
@@ -383,7 +395,7 @@ fn main() -> ExitCode {
             }
         }
     }
-    match run_controller(&scenario, &reference, args.refresh_cached) {
+    match run_controller(&scenario, &reference, args.tracking.as_ref().map(|t| t.1)) {
         Ok(r) => results.push(r),
         Err(e) => {
             eprintln!("error: mpm-dt: {e}");
@@ -405,7 +417,7 @@ fn main() -> ExitCode {
             "exact_solution_is_reference_only": large_amplitude,
             "policies": results,
             "ratios": ratios,
-            "refresh_cached": args.refresh_cached,
+            "tracking": args.tracking.as_ref().map_or("scenario", |t| t.0.as_str()),
         });
         println!("{doc}");
     } else {

@@ -8,7 +8,9 @@
 use mpm_dt::controller::{Controller, ControllerConfig};
 use mpm_dt::mpm::ReferenceStepper;
 use mpm_dt::scenario::Scenario;
-use mpm_dt::stability::{Refresh, SoundSpeed, SoundSpeedConfig, Stability, StabilityConfig};
+use mpm_dt::stability::{
+    Refresh, SoundSpeed, SoundSpeedConfig, Stability, StabilityConfig, Tracking,
+};
 use mpm_dt::{StepLimit, Stepper};
 
 const SCENARIO: &str = concat!(
@@ -57,7 +59,7 @@ fn controller_with_every_step_lambda_max_survives_small_nodal_masses() {
     let mut s = scenario.build().expect("scenario builds");
     let e0 = s.total_energy();
     let stability = Stability::new(StabilityConfig {
-        refresh: Refresh::every_step(),
+        tracking: Tracking::Lanczos(Refresh::every_step()),
         ..StabilityConfig::default()
     })
     .expect("valid config");

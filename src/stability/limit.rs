@@ -58,6 +58,7 @@
 //! growth monitor lowers it when it sees the slow instability of moving particles.
 
 use super::bound58::{bound58, Bound58Reading};
+use super::certified::{CertifiedConfig, CertifiedEstimate, CertifiedState, CertifiedTracker};
 use super::error::StabilityError;
 use super::lambda_max::{LambdaEstimate, LambdaMaxTracker, LanczosConfig};
 use super::nodal::NodalOperator;
@@ -76,18 +77,35 @@ pub struct StabilityConfig {
     pub tol: f64,
     /// Which reading of eq 58 judges trials (default [`Bound58Reading::Consistent`]).
     pub reading: Bound58Reading,
-    /// The Lanczos settings of the λmax tracker.
+    /// The Lanczos settings of the λmax iteration.
     pub lanczos: LanczosConfig,
-    /// When λmax is recomputed (see the module docs).
-    pub refresh: Refresh,
-    /// Eq 58 is evaluated on the trial after every `bound58_every`-th λmax update (default
-    /// 50; 1 checks every trial, 0 never). See "Cost" in the module docs for why it is not
+    /// How λmax is tracked (default [`Tracking::Certified`]; see the module docs).
+    pub tracking: Tracking,
+    /// Eq 58 is evaluated on the trial of every `bound58_every`-th proposal (default 50;
+    /// 1 checks every trial, 0 never). See "Cost" in the module docs for why it is not
     /// checked at every step by default.
     pub bound58_every: u32,
 }
 
-/// When the [`Stability`] limit re-runs its λmax update (module docs, "When λmax is
-/// recomputed"). An update happens when any threshold is crossed; the default updates at
+/// How the [`Stability`] limit follows `λmax` from step to step (module docs).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+pub enum Tracking {
+    /// A rigorous upper bound at every proposal, re-anchored by Lanczos plus an `LDLᵀ`
+    /// certificate when it drifts ([`CertifiedTracker`]). The default.
+    Certified(CertifiedConfig),
+    /// The Lanczos Ritz value (a lower bound on `λmax`), recomputed as [`Refresh`] says.
+    Lanczos(Refresh),
+}
+
+impl Default for Tracking {
+    fn default() -> Self {
+        Self::Certified(CertifiedConfig::default())
+    }
+}
+
+/// When the [`Stability`] limit re-runs its Lanczos update in [`Tracking::Lanczos`] mode
+/// (module docs). An update happens when any threshold is crossed; the default updates at
 /// every proposal.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -227,7 +245,7 @@ impl Default for StabilityConfig {
             tol: 1e-6,
             reading: Bound58Reading::Consistent,
             lanczos: LanczosConfig::default(),
-            refresh: Refresh::default(),
+            tracking: Tracking::default(),
             bound58_every: 50,
         }
     }
@@ -249,14 +267,19 @@ fn check_safety(safety: f64) -> Result<(), StabilityError> {
 #[derive(Clone, Debug, Default)]
 pub struct Stability {
     config: StabilityConfig,
+    /// The Lanczos tracker of [`Tracking::Lanczos`].
     tracker: LambdaMaxTracker,
+    /// The tracker of [`Tracking::Certified`].
+    certified: CertifiedTracker,
     /// The nodal form of the eq 56 operator, rebuilt in place at each update.
     nodal: NodalOperator,
     reference: Option<RefreshReference>,
+    /// The estimate the last proposal used (the certified upper bound in the default mode).
+    current: Option<LambdaEstimate>,
     /// Whether eq 58 is due on the trial of the last proposal.
     fresh: bool,
-    /// λmax updates so far (for [`StabilityConfig::bound58_every`]).
-    updates: u64,
+    /// Proposals so far (for [`StabilityConfig::bound58_every`]).
+    proposals: u64,
 }
 
 impl Stability {
@@ -270,14 +293,22 @@ impl Stability {
                 reason: "must be non-negative and finite",
             });
         }
-        config.refresh.validate()?;
+        let certified = match config.tracking {
+            Tracking::Certified(c) => c,
+            Tracking::Lanczos(r) => {
+                r.validate()?;
+                CertifiedConfig::default()
+            }
+        };
         Ok(Self {
             config,
             tracker: LambdaMaxTracker::new(config.lanczos)?,
+            certified: CertifiedTracker::new(certified, config.lanczos)?,
             nodal: NodalOperator::default(),
             reference: None,
+            current: None,
             fresh: false,
-            updates: 0,
+            proposals: 0,
         })
     }
 
@@ -304,59 +335,94 @@ impl Stability {
         Ok(())
     }
 
-    /// The last λmax estimate (from the last proposal).
+    /// The λmax estimate the last proposal used (the certified upper bound by default).
     pub fn last_estimate(&self) -> Option<LambdaEstimate> {
-        self.tracker.last()
+        self.current
     }
 
-    /// The tracker (e.g. to read the eigenvector).
+    /// The Lanczos tracker of [`Tracking::Lanczos`] (e.g. to read the eigenvector).
     pub fn tracker(&self) -> &LambdaMaxTracker {
         &self.tracker
     }
 
-    /// Updates λmax for `state` and returns the estimate. The Lanczos iteration runs on the
-    /// nodal form `C = M^{1/2} K_N M^{1/2}` of the eq 56 operator ([`NodalOperator`]), which
-    /// has the same `λmax` as the particle form `B` on `n_nodes` instead of `n_particles`
-    /// unknowns (the tracker's vector is therefore nodal).
+    /// The certified tracker of [`Tracking::Certified`].
+    pub fn certified_tracker(&self) -> &CertifiedTracker {
+        &self.certified
+    }
+
+    /// The Lanczos estimate of λmax for `state` (a lower bound), updating the Lanczos tracker.
+    /// The iteration runs on the nodal form `C = M^{1/2} K_N M^{1/2}` of the eq 56 operator
+    /// ([`NodalOperator`]), which has the same `λmax` as the particle form `B` on `n_nodes`
+    /// instead of `n_particles` unknowns (the tracker's vector is therefore nodal).
     pub fn estimate(&mut self, state: &View<'_>) -> Result<LambdaEstimate, StabilityError> {
         self.nodal.rebuild(state)?;
-        let est = self.tracker.update(&self.nodal)?;
-        self.updates += 1;
-        Ok(est)
+        self.tracker.update(&self.nodal)
     }
 
-    /// Whether eq 58 is due after the latest update ([`StabilityConfig::bound58_every`]).
+    /// The certified bracket of λmax for `state` ([`CertifiedTracker::update`]).
+    pub fn certified_estimate(
+        &mut self,
+        state: &View<'_>,
+    ) -> Result<CertifiedEstimate, StabilityError> {
+        self.certified.update(state, &mut self.nodal)
+    }
+
+    /// Whether eq 58 is due on the trial of the latest proposal
+    /// ([`StabilityConfig::bound58_every`]).
     fn bound58_due(&self) -> bool {
         let every = u64::from(self.config.bound58_every);
-        every > 0 && (self.updates.saturating_sub(1)).is_multiple_of(every)
+        every > 0 && (self.proposals.saturating_sub(1)).is_multiple_of(every)
     }
 
-    /// The λmax estimate for `state`: the cached one while `state` has not drifted past the
-    /// [`Refresh`] thresholds, a fresh update otherwise. Returns whether it updated.
+    /// The λmax estimate for `state` and the metrics of how it was obtained.
     fn tracked_estimate(
         &mut self,
         state: &View<'_>,
-    ) -> Result<(LambdaEstimate, bool), StabilityError> {
+    ) -> Result<(LambdaEstimate, Metrics), StabilityError> {
+        let mut metrics = Metrics::new();
+        let refresh = match self.config.tracking {
+            Tracking::Lanczos(r) => r,
+            Tracking::Certified(_) => {
+                let c = self.certified_estimate(state)?;
+                metrics.insert("lambda_rayleigh".into(), c.rayleigh);
+                metrics.insert(
+                    "lambda_certified".into(),
+                    if c.certified { 1.0 } else { 0.0 },
+                );
+                metrics.insert("lambda_factorisations".into(), c.factorisations as f64);
+                metrics.insert(
+                    "lanczos_applications".into(),
+                    c.estimate.applications as f64,
+                );
+                return Ok((c.estimate, metrics));
+            }
+        };
         let cached = self.tracker.last().filter(|_| {
             self.reference
                 .as_ref()
-                .is_some_and(|r| !r.stale(state, &self.config.refresh))
+                .is_some_and(|r| !r.stale(state, &refresh))
         });
-        match cached {
+        let (est, fresh) = match cached {
             Some(est) => {
                 if let Some(r) = self.reference.as_mut() {
                     r.proposals += 1;
                 }
-                Ok((est, false))
+                (est, false)
             }
             None => {
                 let est = self.estimate(state)?;
                 let mut reference = RefreshReference::of(state);
                 reference.proposals = 1;
                 self.reference = Some(reference);
-                Ok((est, true))
+                (est, true)
             }
-        }
+        };
+        metrics.insert(
+            "lanczos_applications".into(),
+            if fresh { est.applications as f64 } else { 0.0 },
+        );
+        metrics.insert("lanczos_residual".into(), est.residual);
+        Ok((est, metrics))
     }
 }
 
@@ -365,10 +431,11 @@ impl Stability {
 struct SavedState {
     safety: f64,
     tracker: super::lambda_max::TrackerState,
+    certified: CertifiedState,
     reference: Option<RefreshReference>,
+    current: Option<LambdaEstimate>,
     fresh: bool,
-    #[serde(default)]
-    updates: u64,
+    proposals: u64,
 }
 
 impl StepLimit for Stability {
@@ -394,9 +461,11 @@ impl StepLimit for Stability {
         serde_json::to_value(SavedState {
             safety: self.config.safety,
             tracker: self.tracker.state(),
+            certified: self.certified.state(),
             reference: self.reference.clone(),
+            current: self.current,
             fresh: self.fresh,
-            updates: self.updates,
+            proposals: self.proposals,
         })
         .ok()
     }
@@ -410,26 +479,24 @@ impl StepLimit for Stability {
         check_safety(saved.safety).map_err(|e| e.into_limit_error("stability", f64::NAN))?;
         self.config.safety = saved.safety;
         self.tracker.restore(saved.tracker);
+        self.certified.restore(saved.certified);
         self.reference = saved.reference;
+        self.current = saved.current;
         self.fresh = saved.fresh;
-        self.updates = saved.updates;
+        self.proposals = saved.proposals;
         Ok(())
     }
 
     fn propose(&mut self, state: &View<'_>) -> Result<Proposal, LimitError> {
-        let (est, fresh) = self
+        let (est, mut metrics) = self
             .tracked_estimate(state)
             .map_err(|e| e.into_limit_error("stability", state.t))?;
-        self.fresh = fresh && self.bound58_due();
+        self.current = Some(est);
+        self.proposals += 1;
+        self.fresh = self.bound58_due();
         let dt = self.config.safety * est.dt_eq56;
-        let mut metrics = Metrics::new();
         metrics.insert("lambda_max".into(), est.lambda_hat);
         metrics.insert("dt_eq56".into(), est.dt_eq56);
-        metrics.insert(
-            "lanczos_applications".into(),
-            if fresh { est.applications as f64 } else { 0.0 },
-        );
-        metrics.insert("lanczos_residual".into(), est.residual);
         metrics.insert("safety".into(), self.config.safety);
         tracing::debug!(
             t = state.t,
@@ -448,12 +515,15 @@ impl StepLimit for Stability {
         after: &View<'_>,
         dt: f64,
     ) -> Result<Judgement, LimitError> {
-        let est = match self.tracker.last() {
+        let est = match self.current {
             Some(e) => e,
             None => {
-                let est = self
-                    .estimate(before)
+                // Judged without a proposal: bound λmax of the committed state now.
+                let (est, _) = self
+                    .tracked_estimate(before)
                     .map_err(|e| e.into_limit_error("stability", before.t))?;
+                self.current = Some(est);
+                self.proposals += 1;
                 self.fresh = self.bound58_due();
                 est
             }

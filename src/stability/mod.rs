@@ -8,6 +8,8 @@
 //! | [`operator`] | the eq 56 operator `D*F`, matrix-free in `O(nnz)` and dense (faer) | eqs 50–56 |
 //! | [`nodal`] | the same operator reduced to the nodes, `M^{1/2} K_N M^{1/2}` (banded, same λmax) | eq 56 |
 //! | [`lambda_max`] | `λmax(D*F)` by a warm-started Lanczos iteration | eq 56 |
+//! | [`certificate`] | certified bounds on `λmax`: `LDLᵀ` inertia test and Weyl drift | eq 56 |
+//! | [`certified`] | the [`CertifiedTracker`]: a rigorous upper bound at every step | eq 56 |
 //! | [`mod@bound58`] | the eq 58 "lower bound" on the amplification-matrix norm | eqs 33, 57, 58 |
 //! | [`full_map`] | the exact frozen-particle critical step of the whole USL map | eqs 17–29 linearised |
 //! | [`empirical`] | the critical step found by bisection on real nonlinear runs | DESIGN.md `critical_dt` |
@@ -59,6 +61,8 @@
 //!   (see [`mod@bound58`]).
 
 pub mod bound58;
+pub mod certificate;
+pub mod certified;
 pub mod empirical;
 
 mod error;
@@ -69,6 +73,7 @@ pub mod nodal;
 pub mod operator;
 pub mod sound_speed;
 
+pub use certified::{CertifiedConfig, CertifiedEstimate, CertifiedTracker};
 pub(crate) use error::all_finite;
 pub use error::StabilityError;
 pub use full_map::{FullMap, FullMapConfig};
@@ -79,6 +84,6 @@ pub use nodal::NodalOperator;
 
 pub use bound58::{bound58, Bound58, Bound58Reading};
 pub use empirical::{EmpiricalConfig, EmpiricalCritical, Protocol, RunOutcome};
-pub use limit::{Refresh, Stability, StabilityConfig};
+pub use limit::{Refresh, Stability, StabilityConfig, Tracking};
 pub use operator::Eq56Operator;
 pub use sound_speed::{SoundSpeed, SoundSpeedConfig};

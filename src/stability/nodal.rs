@@ -238,6 +238,35 @@ impl NodalOperator {
         Ok(())
     }
 
+    /// The bands of `C`: `(diag, off)` with `diag[i] = C(i, i)` and
+    /// `off[i] = [C(i, i+1), C(i, i+2)]` (indices wrapped on periodic grids, zero past a fixed
+    /// grid's last node).
+    pub fn bands(&self) -> (&[f64], &[[f64; 2]]) {
+        (&self.c_diag, &self.c_off)
+    }
+
+    /// `1/√m_i` at active nodes, 0 elsewhere (`C = S K_N S` with `S = diag(scale)`).
+    pub fn scale(&self) -> &[f64] {
+        &self.scale
+    }
+
+    /// `K_N` as assembled from the view's weights by the last build (empty when the view
+    /// carried the stepper's `K_N`, which is not copied).
+    pub fn stiffness(&self) -> &NodalStiffness {
+        &self.assembled
+    }
+
+    /// Whether the grid is periodic (the bands wrap).
+    pub fn is_periodic(&self) -> bool {
+        self.periodic
+    }
+
+    /// Whether every eigenvalue of `C` is below `mu` (one `LDLᵀ` of `μI − C`, Sylvester's law
+    /// of inertia: see [`super::certificate`]).
+    pub fn eigenvalues_below(&self, mu: f64) -> bool {
+        super::certificate::below_shift(&self.c_diag, &self.c_off, self.periodic, mu)
+    }
+
     /// Grid spacing `h`.
     pub fn h(&self) -> f64 {
         self.h
