@@ -12,10 +12,15 @@
 //! * `nodal_apply` — one application of `C` (`O(5 n_nodes)`);
 //! * `nodal_update_warm` — one warm Lanczos update on prebuilt nodal operators of two states
 //!   one step apart (alternating, no periodic restart): the tracker's own cost;
-//! * `propose_with_restarts` / `propose_warm_only` — `Stability::propose` (operator build plus
-//!   a warm Lanczos update) alternating between two states one step apart, with the default
-//!   cold restart every 10 updates (the mean per-step cost) and without restarts (the
-//!   typical warm update).
+//! * `certificate_ldlt` — one `LDLᵀ` inertia test of `μI − C` (the certificate);
+//! * `propose_*` — `Stability::propose` as the controller runs it (the stepper provides
+//!   `K_N`), alternating between two states one step apart:
+//!   `propose_lanczos_with_restarts` / `propose_lanczos_warm_only` — the Lanczos tracking of
+//!   `Tracking::Lanczos(Refresh::every_step())` with and without the cold restart every 10
+//!   updates (the previous default); `propose_certified` — the default certified tracking
+//!   (a Rayleigh-quotient pass per proposal, an `LDLᵀ` certificate every 20: the mean
+//!   per-step cost); `propose_certified_served_only` — the served pass alone (no
+//!   certificate); `propose_certified_every_step` — a certificate at every proposal.
 //!
 //! It also prints the applications of `B` per step over 30 steps (the periodic cold restarts
 //! included), from which the average per-step cost follows as a multiple of `operator_apply`.
@@ -25,8 +30,8 @@ use criterion::{criterion_group, criterion_main, Criterion};
 use mpm_dt::mpm::{Material, ReferenceStepper};
 use mpm_dt::problems::StandingWave;
 use mpm_dt::stability::{
-    Eq56Operator, LambdaMaxTracker, LanczosConfig, NodalOperator, Stability, StabilityConfig,
-    SymmetricOperator,
+    CertifiedConfig, Eq56Operator, LambdaMaxTracker, LanczosConfig, NodalOperator, Refresh,
+    Stability, StabilityConfig, SymmetricOperator, Tracking,
 };
 use mpm_dt::{Boundary, Grid, Shape, StepLimit, Stepper};
 use std::hint::black_box;
@@ -140,23 +145,48 @@ fn bench(c: &mut Criterion) {
             })
         });
     }
-    for (name, restart_every) in [("propose_with_restarts", 10), ("propose_warm_only", 0)] {
-        let config = StabilityConfig {
-            lanczos: LanczosConfig {
-                restart_every,
-                ..LanczosConfig::default()
-            },
-            ..StabilityConfig::default()
-        };
+    // The limit as the controller runs it: the stepper provides K_N in its own pass, and
+    // `Stability::propose` alternates between two states one step apart.
+    let mut sk = s.clone();
+    sk.provide_nodal_stiffness(true);
+    sk.try_step(dt).expect("stable step");
+    sk.accept().expect("trial pending");
+    let mut sk_next = sk.clone();
+    sk_next.try_step(dt).expect("stable step");
+    sk_next.accept().expect("trial pending");
+    let (view_k, next_k) = (sk.view(), sk_next.view());
+    assert!(view_k.nodal_stiffness.is_some() && next_k.nodal_stiffness.is_some());
+    let lanczos = |restart_every| StabilityConfig {
+        lanczos: LanczosConfig {
+            restart_every,
+            ..LanczosConfig::default()
+        },
+        tracking: Tracking::Lanczos(Refresh::every_step()),
+        ..StabilityConfig::default()
+    };
+    let certified = |certify_every| StabilityConfig {
+        tracking: Tracking::Certified(CertifiedConfig {
+            certify_every,
+            ..CertifiedConfig::default()
+        }),
+        ..StabilityConfig::default()
+    };
+    for (name, config) in [
+        ("propose_lanczos_with_restarts", lanczos(10)),
+        ("propose_lanczos_warm_only", lanczos(0)),
+        ("propose_certified", certified(20)),
+        ("propose_certified_served_only", certified(u32::MAX)),
+        ("propose_certified_every_step", certified(1)),
+    ] {
         let mut l = Stability::new(config).expect("valid config");
-        l.propose(&view).expect("valid");
-        l.propose(&next).expect("valid");
+        l.propose(&view_k).expect("valid");
+        l.propose(&next_k).expect("valid");
         let mut toggle = false;
         g.bench_function(name, |b| {
             b.iter(|| {
                 toggle = !toggle;
                 black_box(
-                    l.propose(if toggle { &view } else { &next })
+                    l.propose(if toggle { &view_k } else { &next_k })
                         .expect("valid"),
                 )
             })

@@ -6,10 +6,14 @@
 //!           or if      dt > (1 + tol) dt_eq56            (a violated stability proposal)
 //! ```
 //!
-//! `λmax(B)` is tracked by [`LambdaMaxTracker`] on the *nodal* form of the operator,
-//! `C = M^{1/2} K_N M^{1/2}` ([`NodalOperator`], same λmax, `n_nodes` unknowns, banded), warm-
-//! started from the previous eigenvector at every proposal: a proposal takes `K_N` from the
-//! stepper (or assembles it from the `D` weights) and runs a few `O(5 n_nodes)` applications.
+//! `λmax(B)` is tracked on the *nodal* form of the operator, `C = M^{1/2} K_N M^{1/2}`
+//! ([`NodalOperator`], same λmax, `n_nodes` unknowns, banded), with `K_N` from the stepper (or
+//! assembled from the `D` weights when the stepper does not provide it). The default
+//! [`Tracking::Certified`] ([`CertifiedTracker`]) serves each proposal from one fused pass over
+//! the nodes (a generalised Rayleigh quotient and a power step) and certifies the value by an
+//! `LDLᵀ` inertia test every 20 proposals or when the pass looks suspicious; Lanczos runs only
+//! when a certificate fails. [`Tracking::Lanczos`] is the previous default: a warm-started
+//! Lanczos update ([`LambdaMaxTracker`]) at every proposal or on [`Refresh`] thresholds.
 //! The eq 58 value is the
 //! [`Bound58Reading::Consistent`] reading in the strain-energy norm (default): it is a true
 //! lower bound on `ρ(A)`, so a value above 1 *proves* the step's stress amplification
@@ -21,15 +25,14 @@
 //! of the same size. A trial whose stress has no curvature (`Δσ = 0`) carries no information
 //! and is not rejected by eq 58.
 //!
-//! # When λmax is recomputed ([`Refresh`])
+//! # When λmax is recomputed in [`Tracking::Lanczos`] mode ([`Refresh`])
 //!
-//! By default ([`Refresh::default`] = [`Refresh::every_step`]) λmax is updated at every
-//! proposal. [`Refresh::cached`] is an *opt-in* cheaper mode: it re-runs Lanczos only when the
+//! [`Refresh::every_step`] updates λmax at every proposal. [`Refresh::cached`] is an *opt-in*
+//! cheaper mode: it re-runs Lanczos only when the
 //! state has drifted from the one of the last update — some particle moved more than
 //! `max_displacement · h`, some active nodal mass changed by more than the relative
 //! `max_mass_change` (or a node switched between active and inactive), some `E_t,p V_p`
-//! changed by more than `max_modulus_change`, or `max_steps` proposals have passed — and
-//! checks eq 58 only on the trial after an update.
+//! changed by more than `max_modulus_change`, or `max_steps` proposals have passed.
 //!
 //! **Known failure of the cached mode** (why it is not the default): on the linear-hat
 //! small-mass scenario of the comparison suite (`scenarios/suite/linear_small_mass.json`) it
@@ -45,14 +48,16 @@
 //!
 //! At 10⁵ particles (GIMP, 2 per cell; `cargo bench --bench stability`, README "Stability")
 //! assembling `K_N` from a view's weights costs about one reference solver step, which is why
-//! the reference solver accumulates it in its own pass instead (the limit then only scales it,
-//! one pass over the nodes); each nodal application costs 3 % of a step, against 31 % per
-//! application of the particle form. Eq 58 needs the Section 4 estimates (nodal second and third derivatives of the
-//! stress, the weights' moments), about three solver steps per evaluation, while it can only
-//! certify instability (it stays near 1 while `ρ(A)` grows). It is therefore evaluated on the
-//! trial after every [`StabilityConfig::bound58_every`]-th λmax update (default 50: the first
-//! trial of a run, then every 50th), which keeps its share near 6 % of a step; set it to 1 to
-//! check every trial, as the paper's "track stability automatically" suggests, at that price.
+//! the reference solver accumulates it in its own pass instead (the limit then only reads it).
+//! The certified tracking's served proposal is one pass over the nodes; its `LDLᵀ`
+//! certificate costs about a fifth of a solver step, every 20 proposals; a Lanczos update per
+//! proposal (the previous default) cost most of a solver step. Eq 58 needs the Section 4
+//! estimates (nodal second and third derivatives of the stress, the weights' moments), about
+//! three solver steps per evaluation, while it can only certify instability (it stays near 1
+//! while `ρ(A)` grows). It is therefore evaluated on the trial of every
+//! [`StabilityConfig::bound58_every`]-th proposal (default 50: the first trial of a run, then
+//! every 50th), which keeps its share near 6 % of a step; set it to 1 to check every trial,
+//! as the paper's "track stability automatically" suggests, at that price.
 //!
 //! The safety factor can be changed at run time ([`Stability::set_safety`]): the controller's
 //! growth monitor lowers it when it sees the slow instability of moving particles.
