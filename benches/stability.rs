@@ -12,6 +12,8 @@
 //! * `nodal_apply` — one application of `C` (`O(5 n_nodes)`);
 //! * `nodal_update_warm` — one warm Lanczos update on prebuilt nodal operators of two states
 //!   one step apart (alternating, no periodic restart): the tracker's own cost;
+//! * `nodal_rebuild_from_stepper_kn` — building `C`'s bands from the stepper's `K_N` (what an
+//!   anchor does before its certificate);
 //! * `certificate_ldlt` — one `LDLᵀ` inertia test of `μI − C` (the certificate);
 //! * `propose_*` — `Stability::propose` as the controller runs it (the stepper provides
 //!   `K_N`), alternating between two states one step apart:
@@ -156,6 +158,12 @@ fn bench(c: &mut Criterion) {
     sk_next.accept().expect("trial pending");
     let (view_k, next_k) = (sk.view(), sk_next.view());
     assert!(view_k.nodal_stiffness.is_some() && next_k.nodal_stiffness.is_some());
+    {
+        let mut op = NodalOperator::new(&view_k).expect("valid");
+        g.bench_function("nodal_rebuild_from_stepper_kn", |b| {
+            b.iter(|| op.rebuild(black_box(&view_k)).expect("valid"))
+        });
+    }
     let lanczos = |restart_every| StabilityConfig {
         lanczos: LanczosConfig {
             restart_every,
