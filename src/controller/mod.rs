@@ -41,6 +41,7 @@ mod growth;
 mod scaled;
 mod stats;
 mod temporal_error;
+mod temporal_kernels;
 
 pub use checkpoint::{Checkpoint, ControllerCheckpoint, ControllerState, LimitCheckpoint};
 pub use config::{ConfigError, ControllerConfig};
