@@ -273,20 +273,6 @@ impl GrowthMonitor {
             .then(|| total_energy(view))
     }
 
-    /// The indicator and the confirming energy of a state; with the checkerboard indicator
-    /// and the energy confirmation on, both from one pass over the state
-    /// ([`super::growth_scan`], bit for bit the separate functions' values).
-    fn indicators(&self, view: &View<'_>) -> (f64, Option<f64>) {
-        if self.config.indicator == GrowthIndicator::Checkerboard
-            && self.config.energy_confirm > 0.0
-        {
-            if let Some((share, energy)) = super::growth_scan::share_and_energy(view) {
-                return (share, Some(energy));
-            }
-        }
-        (self.indicator(view), self.confirming_energy(view))
-    }
-
     /// Whether the window maxima show growth.
     fn growing(&self, w: &Windows) -> bool {
         let m = &w.maxima;
@@ -328,7 +314,8 @@ impl StepLimit for GrowthMonitor {
         after: &View<'_>,
         dt: f64,
     ) -> Result<Judgement, LimitError> {
-        let (value, energy) = self.indicators(after);
+        let value = self.indicator(after);
+        let energy = self.confirming_energy(after);
         self.judged = Some((before.t, dt, value, energy));
         let mut metrics = Metrics::new();
         metrics.insert("growth_indicator".to_string(), value);
@@ -354,7 +341,7 @@ impl StepLimit for GrowthMonitor {
             {
                 (value, energy)
             }
-            _ => self.indicators(after),
+            _ => (self.indicator(after), self.confirming_energy(after)),
         };
         self.state = self.pushed(value, energy);
     }

@@ -38,7 +38,6 @@ mod config;
 mod decision;
 mod filter;
 mod growth;
-mod growth_scan;
 mod scaled;
 mod stats;
 mod temporal_error;
