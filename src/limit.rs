@@ -46,15 +46,23 @@ pub enum RejectCause {
     UserVeto,
 }
 
-impl std::fmt::Display for RejectCause {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(match self {
+impl RejectCause {
+    /// The cause's name in logs (as serialized): `"error"`, `"stability"`, `"growth"`,
+    /// `"non_finite"`, `"user_veto"`.
+    pub fn as_str(self) -> &'static str {
+        match self {
             RejectCause::Error => "error",
             RejectCause::Stability => "stability",
             RejectCause::Growth => "growth",
             RejectCause::NonFinite => "non_finite",
             RejectCause::UserVeto => "user_veto",
-        })
+        }
+    }
+}
+
+impl std::fmt::Display for RejectCause {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.as_str())
     }
 }
 

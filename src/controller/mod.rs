@@ -41,6 +41,7 @@ mod growth;
 mod scaled;
 mod stats;
 mod temporal_error;
+mod temporal_kernels;
 
 pub use checkpoint::{Checkpoint, ControllerCheckpoint, ControllerState, LimitCheckpoint};
 pub use config::{ConfigError, ControllerConfig};
@@ -163,13 +164,25 @@ fn reached(t: f64, t_end: f64) -> bool {
         || (t_end.is_finite() && (t_end - t) <= 4.0 * f64::EPSILON * t_end.abs().max(t.abs()))
 }
 
-/// Drops non-finite metrics (JSON cannot carry them).
-fn finite_metrics(into: &mut Metrics, from: &Metrics) {
+/// Moves the finite metrics of `from` into `into` (JSON cannot carry the others); the
+/// names are moved, not copied.
+fn finite_metrics(into: &mut Metrics, from: Metrics) {
     for (k, v) in from {
         if v.is_finite() {
-            into.insert(k.clone(), *v);
+            into.insert(k, v);
         }
     }
+}
+
+/// What a bound on `dt` is: one of the controller's limits (by position) or one of the
+/// named [`bound`]s. Kept as this small value while the bounds are compared; the name is
+/// copied into a `String` once, for the decision.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum BoundName {
+    /// The limit at this position in the controller's list.
+    Limit(usize),
+    /// A bound that is not a limit ([`bound`]).
+    Named(&'static str),
 }
 
 /// The first non-finite value of the trial's `x`, `v`, `σ`, `F` (in that order), if any.
@@ -392,8 +405,8 @@ impl Controller {
             // 1. Proposals from the committed state.
             let view = stepper.view();
             let mut records = Vec::with_capacity(self.limits.len());
-            let mut bounds: Vec<(String, f64)> = Vec::new();
-            for limit in self.limits.iter_mut() {
+            let mut bounds: Vec<(BoundName, f64)> = Vec::with_capacity(self.limits.len() + 5);
+            for (index, limit) in self.limits.iter_mut().enumerate() {
                 let p = limit
                     .propose(&view)
                     .map_err(|source| ControllerError::Limit { t, source })?;
@@ -405,9 +418,9 @@ impl Controller {
                     });
                 }
                 let mut metrics = Metrics::new();
-                finite_metrics(&mut metrics, &p.metrics);
+                finite_metrics(&mut metrics, p.metrics);
                 if p.dt.is_finite() {
-                    bounds.push((limit.name().to_string(), p.dt));
+                    bounds.push((BoundName::Limit(index), p.dt));
                 }
                 records.push(LimitRecord {
                     name: limit.name().to_string(),
@@ -423,10 +436,10 @@ impl Controller {
                 .map(|h| self.config.safety * h)
                 .filter(|h| h.is_finite() && *h > 0.0);
             if let Some(h) = filter_dt {
-                bounds.push((bound::FILTER.to_string(), h));
+                bounds.push((BoundName::Named(bound::FILTER), h));
             }
             if let Some(m) = self.config.dt_max {
-                bounds.push((bound::DT_MAX.to_string(), m));
+                bounds.push((BoundName::Named(bound::DT_MAX), m));
             }
             if let Some(prev) = self.state.dt_prev {
                 let g = if self.state.no_growth_next {
@@ -434,26 +447,30 @@ impl Controller {
                 } else {
                     self.config.max_growth
                 };
-                bounds.push((bound::GROWTH_CAP.to_string(), g * prev));
+                bounds.push((BoundName::Named(bound::GROWTH_CAP), g * prev));
             } else if let Some(d0) = self.config.dt_initial {
-                bounds.push((bound::DT_INITIAL.to_string(), d0));
+                bounds.push((BoundName::Named(bound::DT_INITIAL), d0));
             }
             if let Some(r) = retry_cap {
-                bounds.push((bound::RETRY.to_string(), r));
+                bounds.push((BoundName::Named(bound::RETRY), r));
             }
             if bounds.is_empty() {
                 return Err(ControllerError::NoInitialStep { t });
             }
             let remaining = t_end - t;
-            bounds.push((bound::T_END.to_string(), remaining));
+            bounds.push((BoundName::Named(bound::T_END), remaining));
             // 2. The smallest bound wins (first listed on a tie).
-            let (mut binding, mut dt) = (String::new(), f64::INFINITY);
-            for (name, b) in &bounds {
-                if *b < dt {
-                    dt = *b;
-                    binding.clone_from(name);
+            let (mut binding_of, mut dt) = (BoundName::Named(""), f64::INFINITY);
+            for &(name, b) in &bounds {
+                if b < dt {
+                    dt = b;
+                    binding_of = name;
                 }
             }
+            let binding = match binding_of {
+                BoundName::Limit(i) => self.limits[i].name().to_string(),
+                BoundName::Named(name) => name.to_string(),
+            };
             while t + dt > t_end && dt > 0.0 {
                 dt = dt.next_down();
             }
@@ -507,7 +524,7 @@ impl Controller {
                                     return Err(ControllerError::Limit { t, source });
                                 }
                             };
-                            finite_metrics(&mut rec.metrics, &j.metrics);
+                            finite_metrics(&mut rec.metrics, j.metrics);
                             if let Verdict::Reject {
                                 cause: c,
                                 suggested_dt,
@@ -544,7 +561,7 @@ impl Controller {
                 t,
                 dt,
                 filter_dt,
-                binding: binding.clone(),
+                binding,
                 bound58: records
                     .iter()
                     .find_map(|r| r.metrics.get(metric::BOUND58).copied()),
@@ -569,7 +586,7 @@ impl Controller {
                     stepper
                         .accept()
                         .map_err(|source| ControllerError::Stepper { t, source })?;
-                    let accuracy_bound = binding == bound::FILTER || filter_dt.is_none();
+                    let accuracy_bound = decision.binding == bound::FILTER || filter_dt.is_none();
                     if let Some(e) = dsm {
                         if accuracy_bound {
                             self.state.filter.record(dt, e);
@@ -640,14 +657,14 @@ fn emit(d: &Decision) {
         Outcome::Accepted => "accepted",
         Outcome::Rejected => "rejected",
     };
-    let cause = d.cause.map_or_else(String::new, |c| c.to_string());
+    let cause = d.cause.map_or("", RejectCause::as_str);
     tracing::info!(
         step = d.step,
         attempt = d.attempt,
         t = d.t,
         dt = d.dt,
         outcome,
-        cause = cause.as_str(),
+        cause,
         binding = d.binding.as_str(),
         rejected_by = d.rejected_by.as_deref().unwrap_or(""),
         dsm = d.dsm.unwrap_or(nan),

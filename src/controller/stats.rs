@@ -35,7 +35,13 @@ impl Stats {
         match d.outcome {
             Outcome::Accepted => {
                 self.accepted += 1;
-                *self.binding.entry(d.binding.clone()).or_insert(0) += 1;
+                // Counted without cloning the name once it has an entry.
+                match self.binding.get_mut(d.binding.as_str()) {
+                    Some(count) => *count += 1,
+                    None => {
+                        self.binding.insert(d.binding.clone(), 1);
+                    }
+                }
                 self.dt_min = Some(self.dt_min.map_or(d.dt, |m| m.min(d.dt)));
                 self.dt_max = Some(self.dt_max.map_or(d.dt, |m| m.max(d.dt)));
                 self.dt_sum += d.dt;

@@ -53,6 +53,7 @@
 
 use super::config::{check, ConfigError};
 use super::decision::metric;
+use super::temporal_kernels::{dispatch_rates, dispatch_sums, Fields, Terms};
 use crate::limit::{Judgement, LimitError, Metrics, Proposal, RejectCause, StepLimit, Verdict};
 use crate::stepper::View;
 use crate::weights::WeightKind;
@@ -265,10 +266,14 @@ impl TemporalError {
     /// Computes `(dsm, dsm_v, dsm_sigma)` of a trial and writes the rates to remember into
     /// `out` (its arrays are overwritten, their old contents unused).
     ///
-    /// Two passes over the particles, with the arithmetic of the plain per-quantity loops:
-    /// the first computes the rates and every scale (maxima, which do not depend on the
-    /// order; `f64::max` ignores NaN in any order), the second the weights and the two sums,
-    /// in particle order. The second derivatives are formed on the fly, not stored.
+    /// Two passes over the particles ([`super::temporal_kernels`]), with the arithmetic of
+    /// the plain per-quantity loops: the first computes the rates and every scale (maxima,
+    /// which do not depend on the order; `f64::max` ignores NaN in any order), the second
+    /// the weights and the two sums, in particle order. The second derivatives are formed
+    /// on the fly, not stored. The scales are `‖v‖_∞ = max(max_p v̂_p, √(max_p σ̂_p²/z_p²))`
+    /// and `‖σ‖_∞ = max(max_p σ̂_p, √(max_p v̂_p² z_p²))` (√ is monotone: one square root
+    /// per step instead of one per particle; equal to the per-particle forms to within an
+    /// ulp, and the scales only set tolerances).
     fn estimate(
         &self,
         before: &View<'_>,
@@ -283,36 +288,24 @@ impl TemporalError {
         let (et, rho) = (before.tangent_modulus, before.density);
         out.accel.resize(n, 0.0);
         out.stress_rate.resize(n, 0.0);
-        let (accel, stress_rate) = (&mut out.accel[..n], &mut out.stress_rate[..n]);
-        // Pass 1: rates r = (u^{n+1} − u^n)/dt and the energy-equivalent scales
-        // |σ| ↔ ρc|v| (acoustic impedance ρc = √(E_t ρ)), the latter over the particles
-        // that have both a modulus and a density. `max_p |σ_p|/z_p = √(max_p σ_p²/z_p²)` and
-        // `max_p |v_p| z_p = √(max_p v_p² z_p²)` (√ is monotone): one square root per step
-        // instead of one per particle, and `1/dt` once (equal to the per-particle forms to
-        // within an ulp; the scales only set tolerances).
-        let (mut v_scale, mut sigma_scale) = (0.0_f64, 0.0_f64);
-        let (mut v_from_s2, mut s_from_v2) = (0.0_f64, 0.0_f64);
         let nz = n.min(et.len()).min(rho.len());
-        let inv_dt = 1.0 / dt;
-        for p in 0..n {
-            accel[p] = (v1[p] - v0[p]) * inv_dt;
-            stress_rate[p] = (s1[p] - s0[p]) * inv_dt;
-            let v = v0[p].abs().max(v1[p].abs());
-            let sg = s0[p].abs().max(s1[p].abs());
-            v_scale = v_scale.max(v);
-            sigma_scale = sigma_scale.max(sg);
-        }
-        for p in 0..nz {
-            let z2 = et[p] * rho[p];
-            if z2.is_finite() && z2 > 0.0 {
-                let v = v0[p].abs().max(v1[p].abs());
-                let sg = s0[p].abs().max(s1[p].abs());
-                v_from_s2 = v_from_s2.max(sg * sg / z2);
-                s_from_v2 = s_from_v2.max(v * v * z2);
-            }
-        }
-        v_scale = v_scale.max(v_from_s2.sqrt());
-        sigma_scale = sigma_scale.max(s_from_v2.sqrt());
+        // Pass 1: rates r = (u^{n+1} − u^n)/dt and the scales (`temporal_kernels::rates_and_scales`).
+        let sc = dispatch_rates(
+            Fields {
+                v0,
+                v1,
+                s0,
+                s1,
+                et: &et[..nz],
+                rho: &rho[..nz],
+            },
+            1.0 / dt,
+            &mut out.accel[..n],
+            &mut out.stress_rate[..n],
+        );
+        let v_scale = sc.v.max(sc.v_from_s2.sqrt());
+        let sigma_scale = sc.sigma.max(sc.s_from_v2.sqrt());
+        let (accel, stress_rate) = (&out.accel[..n], &out.stress_rate[..n]);
         // Second time derivatives d²u/dt² = (x_p − y_p)/span.
         let nodal;
         let (xv, yv, xs, ys, span): (&[f64], &[f64], &[f64], &[f64], f64) = match &self.history {
@@ -343,60 +336,27 @@ impl TemporalError {
             }
             None => None,
         };
-        // The local error dt²/2 · d²u/dt² with d²u/dt² = (x − y)/span.
-        let c_span = 0.5 * dt * dt / span;
-        let abs_v = c.atol_rel * v_scale.max(prev_v);
-        let abs_s = c.atol_rel * sigma_scale.max(prev_s);
-        let (mut sum_v, mut sum_s) = (0.0, 0.0);
-        // Pass 2, in blocks: the per-particle terms (divisions, independent of each other)
-        // in a vectorisable loop into a small stack buffer, then the two sums strictly in
-        // particle order, as the plain loop adds them.
-        const BLOCK: usize = 256;
-        let (mut tv, mut ts) = ([0.0_f64; BLOCK], [0.0_f64; BLOCK]);
-        let mut start = 0;
-        while start < n {
-            let len = BLOCK.min(n - start);
-            let r = start..start + len;
-            let (xv, yv, xs, ys) = (
-                &xv[r.clone()],
-                &yv[r.clone()],
-                &xs[r.clone()],
-                &ys[r.clone()],
-            );
-            let (v0, v1, s0, s1) = (
-                &v0[r.clone()],
-                &v1[r.clone()],
-                &s0[r.clone()],
-                &s1[r.clone()],
-            );
-            match &spatial {
-                // The explicit `+ 0.0` keeps the weights' arithmetic identical to the
-                // balanced form with a zero spatial error.
-                None => {
-                    for k in 0..len {
-                        let wv = c.atol_v + 0.0 + abs_v + c.rtol * v0[k].abs().max(v1[k].abs());
-                        let ws = c.atol_sigma + 0.0 + abs_s + c.rtol * s0[k].abs().max(s1[k].abs());
-                        tv[k] = term(c_span * (xv[k] - yv[k]), wv);
-                        ts[k] = term(c_span * (xs[k] - ys[k]), ws);
-                    }
-                }
-                Some((sv, ss)) => {
-                    let (sv, ss) = (&sv[r.clone()], &ss[r]);
-                    for k in 0..len {
-                        let wv = c.atol_v + sv[k] + abs_v + c.rtol * v0[k].abs().max(v1[k].abs());
-                        let ws =
-                            c.atol_sigma + ss[k] + abs_s + c.rtol * s0[k].abs().max(s1[k].abs());
-                        tv[k] = term(c_span * (xv[k] - yv[k]), wv);
-                        ts[k] = term(c_span * (xs[k] - ys[k]), ws);
-                    }
-                }
-            }
-            for k in 0..len {
-                sum_v += tv[k];
-                sum_s += ts[k];
-            }
-            start += len;
-        }
+        // Pass 2: the weighted sums of the local errors dt²/2 · d²u/dt² (`temporal_kernels::sums`).
+        let (sum_v, sum_s) = dispatch_sums(
+            Terms {
+                xv,
+                yv,
+                xs,
+                ys,
+                v0,
+                v1,
+                s0,
+                s1,
+                spatial: spatial.as_ref().map(|(sv, ss)| (&sv[..], &ss[..])),
+                c_span: 0.5 * dt * dt / span,
+                atol_v: c.atol_v,
+                atol_sigma: c.atol_sigma,
+                abs_v: c.atol_rel * v_scale.max(prev_v),
+                abs_s: c.atol_rel * sigma_scale.max(prev_s),
+                rtol: c.rtol,
+            },
+            n,
+        );
         let nf = n.max(1) as f64;
         let dsm = ((sum_v + sum_s) / (2.0 * nf)).sqrt();
         let dsm_v = (sum_v / nf).sqrt();
@@ -405,17 +365,6 @@ impl TemporalError {
         out.v_scale = v_scale;
         out.sigma_scale = sigma_scale;
         Ok((dsm, dsm_v, dsm_s))
-    }
-}
-
-/// One particle's squared scaled error `(le/w)²` (0 when `le = 0`, whatever `w`).
-#[inline(always)]
-fn term(le: f64, w: f64) -> f64 {
-    if le == 0.0 {
-        0.0
-    } else {
-        let r = le / w.max(f64::MIN_POSITIVE);
-        r * r
     }
 }
 
