@@ -305,7 +305,7 @@ fn power_pass(
             let (a, m) = (aq[l], mq[l]);
             flags |= (!a & (zq[l] != 0.0)) as u8
                 | (((a & (kq[l] > bound * m)) as u8) << 1)
-                | (((a & !(m > 0.0)) as u8) << 2);
+                | (((a & ((m <= 0.0) | m.is_nan())) as u8) << 2);
             y[l] = y[l] * inv_rho / m;
         }
     }
