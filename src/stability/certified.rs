@@ -129,6 +129,9 @@ pub struct Anchor {
     pub last_rayleigh: f64,
     /// Proposals served since the anchor.
     pub served: u32,
+    /// The certified upper bound over the anchor's Rayleigh quotient (`1 + margin` when the
+    /// first certificate passed): served values are this ratio times their quotient.
+    pub ratio: f64,
 }
 
 /// The checkpointable part of a [`CertifiedTracker`].
@@ -373,7 +376,11 @@ impl CertifiedTracker {
         Ok(Self {
             config,
             lanczos,
-            tracker: LambdaMaxTracker::new(lanczos)?,
+            // No periodic cold restarts: the certificate catches what they were for.
+            tracker: LambdaMaxTracker::new(LanczosConfig {
+                restart_every: 0,
+                ..lanczos
+            })?,
             anchor: None,
             next: Vec::new(),
         })
@@ -442,7 +449,7 @@ impl CertifiedTracker {
                     anchor.served += 1;
                     anchor.last_rayleigh = p.rayleigh;
                     std::mem::swap(&mut anchor.z, &mut self.next);
-                    let lambda = (1.0 + margin) * p.rayleigh;
+                    let lambda = anchor.ratio * p.rayleigh;
                     return Ok(CertifiedEstimate {
                         estimate: estimate(view.grid.h, k.c2_ref, lambda, 0),
                         rayleigh: p.rayleigh,
@@ -462,7 +469,23 @@ impl CertifiedTracker {
         self.anchor_at(op, hint)
     }
 
-    /// A new anchor on `op` (module docs): certify `hint` first, else Lanczos, with fallbacks.
+    /// A new anchor on `op` (module docs): a certified bracket `lo ≤ λmax(C) < hi`, narrowed
+    /// to `hi ≤ (1 + margin) lo`. Every failed certificate at `μ` proves `λmax ≥ μ` (a
+    /// non-positive pivot of `LDLᵀ` makes a leading principal submatrix — or, on periodic
+    /// grids, the Schur complement of the border — not positive definite, so by Cauchy
+    /// interlacing (Haynsworth for the border) `μI − C` is not positive definite either), so
+    /// the bracket's both ends are rigorous:
+    ///
+    /// 1. the served quotient `ρ` of the power-stepped `z` is tried first: `μ = (1 + margin) ρ`;
+    /// 2. else a warm Lanczos update (with the tracker's diagonal guard) gives the mode `z`
+    ///    to serve next and `θ`, and `μ = (1 + margin) max(θ, lo)` is tried;
+    /// 3. else the shift grows geometrically, `lo (1 + 2^k margin)` for `k = 1 … 6` (a top
+    ///    cluster the Lanczos value has not converged into);
+    /// 4. else a cold, tight Lanczos, and finally the rigorous Gershgorin bound;
+    /// 5. the bracket is then bisected until `hi ≤ (1 + margin) lo`;
+    /// 6. if the mode to serve has a quotient more than `2·margin` below `hi`, up to 30 more
+    ///    Lanczos iterations converge it (served values are `hi/ρ_anchor` times their
+    ///    quotient, so a poor mode would make them needlessly high).
     fn anchor_at(
         &mut self,
         op: &NodalOperator,
@@ -471,46 +494,62 @@ impl CertifiedTracker {
         let (diag, off) = op.bands();
         let periodic = op.is_periodic();
         let margin = self.config.margin;
-        let diag_max = op.diagonal_max().map_or(0.0, |(_, d)| d);
+        let mut factorisations = 0;
+        let test = |mu: f64, count: &mut usize| {
+            *count += 1;
+            below_shift(diag, off, periodic, mu)
+        };
         // A zero operator (no stiffness) has λmax = 0: any positive shift certifies it.
-        let shift = |rho: f64| {
-            if rho > 0.0 {
-                rho * (1.0 + margin)
+        let shift = |lo: f64, factor: f64| {
+            if lo > 0.0 {
+                lo * factor
             } else {
                 f64::MIN_POSITIVE
             }
         };
-        let mut factorisations = 0;
+        let mut lo = op.diagonal_max().map_or(0.0, |(_, d)| d);
+        let mut hi = None;
         let mut applications = 0;
-        // 1. The served Rayleigh quotient, if it is not already beaten by a diagonal entry.
-        if let Some(rho) = hint.filter(|&r| r >= diag_max && self.anchor.is_some()) {
-            factorisations += 1;
-            if below_shift(diag, off, periodic, shift(rho)) {
-                let anchor = self.anchor.as_mut().expect("checked above");
-                anchor.served = 0;
-                anchor.rayleigh = rho;
-                anchor.last_rayleigh = rho;
-                let upper = shift(rho) * (1.0 + ROUNDING);
-                tracing::debug!(rayleigh = rho, upper, "lambda_max certified");
-                return Ok(CertifiedEstimate {
-                    estimate: estimate(op.h(), op.c2_ref(), upper, 0),
-                    rayleigh: rho,
-                    certified: true,
-                    factorisations,
-                });
+        // 1. The served quotient (its z is kept when it certifies).
+        let mut vector_ritz = None;
+        if let Some(rho) = hint.filter(|&r| r >= lo && self.anchor.is_some()) {
+            let mu = shift(rho, 1.0 + margin);
+            lo = lo.max(rho);
+            if test(mu, &mut factorisations) {
+                hi = Some(mu);
+                vector_ritz = Some(rho);
+            } else {
+                lo = lo.max(mu);
             }
         }
-        // 2. A warm Lanczos update, certified.
-        let est = self.tracker.update(op)?;
-        applications += est.applications;
-        // The Rayleigh quotient of the vector the tracker keeps (the mode served next).
-        let mut vector_ritz = est.lambda_b;
-        let mut ritz = est.lambda_b.max(diag_max);
-        let mut mu = shift(ritz);
-        factorisations += 1;
-        let mut certified = below_shift(diag, off, periodic, mu);
-        if !certified {
-            // 3. The Ritz value missed the top of the spectrum: a cold, tight iteration.
+        // 2. A warm Lanczos update.
+        if hi.is_none() {
+            let est = self.tracker.update(op)?;
+            applications += est.applications;
+            vector_ritz = Some(est.lambda_b);
+            self.set_vector(op);
+            lo = lo.max(est.lambda_b);
+            let mu = shift(lo, 1.0 + margin);
+            if test(mu, &mut factorisations) {
+                hi = Some(mu);
+            } else {
+                lo = mu;
+            }
+        }
+        // 3. Geometric growth of the shift.
+        if hi.is_none() {
+            let base = lo;
+            for k in 1..=6 {
+                let mu = shift(base, 1.0 + margin * f64::from(1u32 << k));
+                if test(mu, &mut factorisations) {
+                    hi = Some(mu);
+                    break;
+                }
+                lo = mu;
+            }
+        }
+        // 4. A cold, tight Lanczos (a mode far above the warm one), then Gershgorin.
+        if hi.is_none() {
             let tight = LanczosConfig {
                 tol: 1e-8,
                 value_tol: 0.0,
@@ -522,48 +561,91 @@ impl CertifiedTracker {
             let cold = self.tracker.update_with(op, tight)?;
             applications += cold.applications;
             tracing::debug!(
-                ritz,
+                lo,
                 cold = cold.lambda_b,
                 "lambda_max certificate failed: cold Lanczos retried"
             );
-            ritz = ritz.max(cold.lambda_b);
-            vector_ritz = cold.lambda_b;
-            mu = shift(ritz);
-            factorisations += 1;
-            certified = below_shift(diag, off, periodic, mu);
-        }
-        if !certified {
-            // 4. Bisection between the failed shift and the rigorous Gershgorin bound.
-            let (mut lo, mut hi) = (mu, op.gershgorin_bound() * (1.0 + 1e-12));
-            if hi.partial_cmp(&lo) != Some(std::cmp::Ordering::Greater) {
-                hi = 2.0 * lo;
-            }
-            while hi > (1.0 + margin) * lo && factorisations < 64 {
-                let mid = 0.5 * (lo + hi);
-                factorisations += 1;
-                if below_shift(diag, off, periodic, mid) {
-                    hi = mid;
+            if cold.lambda_b > lo {
+                vector_ritz = Some(cold.lambda_b);
+                self.set_vector(op);
+                lo = cold.lambda_b;
+                let mu = shift(lo, 1.0 + margin);
+                if test(mu, &mut factorisations) {
+                    hi = Some(mu);
                 } else {
-                    lo = mid;
+                    lo = mu;
                 }
             }
-            tracing::debug!(
-                ritz,
-                upper = hi,
-                factorisations,
-                "lambda_max bracket bisected"
-            );
-            mu = hi;
         }
-        if !mu.is_finite() {
+        let mut hi = match hi {
+            Some(hi) => hi,
+            None => {
+                let g = op.gershgorin_bound() * (1.0 + 1e-12);
+                if g > lo {
+                    g
+                } else {
+                    2.0 * lo
+                }
+            }
+        };
+        // 5. Bisection down to the margin.
+        while hi > (1.0 + margin) * lo && lo > 0.0 && factorisations < 64 {
+            let mid = 0.5 * (lo + hi);
+            if test(mid, &mut factorisations) {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
+        }
+        if !hi.is_finite() {
             return Err(StabilityError::InvalidField {
                 field: "lambda_max",
                 index: 0,
-                value: mu,
+                value: hi,
             });
         }
-        let upper = mu * (1.0 + ROUNDING);
-        // The tracked mode: z = M^{1/2} u from the Lanczos vector u (zero at inactive nodes).
+        let upper = hi * (1.0 + ROUNDING);
+        let mut rho = vector_ritz.unwrap_or(lo);
+        // 6. A served mode far below the certified bound would make every served value
+        //    that much too high: converge it further (bounded), from the tracker's vector.
+        if rho > 0.0 && upper > (1.0 + 2.0 * margin) * rho {
+            let further = LanczosConfig {
+                tol: 1e-6,
+                value_tol: 0.0,
+                restart_every: 0,
+                max_iter: 30,
+                ..self.lanczos
+            };
+            let est = self.tracker.update_with(op, further)?;
+            applications += est.applications;
+            if est.lambda_b > rho {
+                rho = est.lambda_b.min(upper);
+                self.set_vector(op);
+            }
+        }
+        let anchor = self.anchor.get_or_insert_with(Anchor::default);
+        anchor.rayleigh = rho;
+        anchor.last_rayleigh = rho;
+        anchor.served = 0;
+        anchor.ratio = if rho > 0.0 { upper / rho } else { 1.0 + margin };
+        tracing::debug!(
+            rayleigh = rho,
+            lower = lo,
+            upper,
+            applications,
+            factorisations,
+            "lambda_max anchored"
+        );
+        Ok(CertifiedEstimate {
+            estimate: estimate(op.h(), op.c2_ref(), upper, applications),
+            rayleigh: rho,
+            certified: true,
+            factorisations,
+        })
+    }
+
+    /// The tracked mode `z = M^{1/2} u` from the Lanczos tracker's vector `u`.
+    fn set_vector(&mut self, op: &NodalOperator) {
         let anchor = self.anchor.get_or_insert_with(Anchor::default);
         anchor.z.clear();
         anchor.z.extend(
@@ -573,22 +655,6 @@ impl CertifiedTracker {
                 .zip(op.scale())
                 .map(|(u, s)| u * s),
         );
-        anchor.rayleigh = vector_ritz;
-        anchor.last_rayleigh = vector_ritz;
-        anchor.served = 0;
-        tracing::debug!(
-            ritz,
-            upper,
-            applications,
-            factorisations,
-            "lambda_max anchored"
-        );
-        Ok(CertifiedEstimate {
-            estimate: estimate(op.h(), op.c2_ref(), upper, applications),
-            rayleigh: ritz,
-            certified: true,
-            factorisations,
-        })
     }
 }
 
