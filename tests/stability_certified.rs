@@ -65,11 +65,13 @@ fn follow(
             worst_served = worst_served.min(value / dense);
         }
         // A certified value is bisected to within the margin of the truth; a served one is
-        // the anchor's certified ratio times its quotient (measured: at most 0.11 % above).
+        // the anchor's certified ratio times its quotient, which is high when the quotient
+        // has improved since the anchor (measured: at most 2.4 % above, on the proptest's
+        // random layouts; 0.1 % on the named ones).
         let loosest = if c.certified {
             (1.0 + config.margin) * (1.0 + 1e-9)
         } else {
-            1.02
+            1.03
         };
         assert!(
             value <= loosest * dense,
@@ -123,8 +125,10 @@ fn bracket_holds_on_moving_gimp_layouts() {
             "{} applications of C per step: the served path is not saving work",
             f.applications
         );
+        // A stale mode may hide up to `drop_tol` = 2 % of λmax (dt 1 % high) before the
+        // tracker re-anchors (measured: 2.0 %).
         assert!(
-            f.worst_served >= 0.995,
+            f.worst_served >= 0.97,
             "served value {} of the dense λmax",
             f.worst_served
         );
