@@ -8,7 +8,7 @@
 //! Set-up: standing wave (amplitude 0.01 c), GIMP, 2 particles per cell, periodic, at
 //! 10³ … 10⁶ particles. The controller is `Controller::standard` with the default
 //! configuration (as `examples/compare.rs` runs it): `SoundSpeed` with `α = 1` as a cap,
-//! `Stability` (eq 56, safety 0.95, default `Refresh`), the temporal error limit and the
+//! `Stability` (eq 56, safety 0.95, default certified λmax tracking), the temporal error limit and the
 //! growth monitor. The per-limit sub-benches use `Stability` at its own default safety 0.9
 //! (the safety does not change its cost).
 //!
@@ -23,9 +23,10 @@
 //! - `limit_propose/NAME` and `limit_judge/NAME` at 10⁵ particles: each limit's share of
 //!   the overhead (propose alternating between two states one step apart, judge of one trial
 //!   against the committed state). `stability_every_step` is the stability limit with
-//!   `Refresh::every_step()` (a Lanczos update at every proposal), for comparison with the
-//!   default refresh policy. `propose` of the default `stability` alternates between two
-//!   states within its thresholds, so it measures the cached path plus the staleness check.
+//!   `Tracking::Lanczos(Refresh::every_step())` (a Lanczos update at every proposal, the
+//!   previous default), for comparison with the default certified tracking, whose `propose`
+//!   here is mostly the served one-pass path (an anchor every 20 proposals). The stepper
+//!   was driven by the controller first, so its views carry `K_N` as in a controlled run.
 //!
 //! The λmax tracker's own cost (operator build, one application, warm update) is in
 //! `benches/stability.rs`; the estimators' in `benches/estimators.rs`.
@@ -130,7 +131,7 @@ fn bench_overhead(c: &mut Criterion) {
 }
 
 /// Every limit of the controlled run, labelled, plus the stability limit recomputing λmax at
-/// every step (`Refresh::every_step`) to show what the refresh policy saves.
+/// every step (`Tracking::Lanczos(Refresh::every_step())`, the previous default).
 fn all_limits() -> Vec<(&'static str, Box<dyn StepLimit>)> {
     let temporal = match TemporalError::new(TemporalErrorConfig::default()) {
         Ok(l) => l,
