@@ -255,6 +255,29 @@ fn a_ritz_value_below_the_top_is_caught_and_repaired() {
 }
 
 #[test]
+fn smallest_grids_are_bracketed() {
+    // 3 and 4 cells (periodic: as many nodes), where wrapped couplings alias and the served
+    // pass declines (fewer than 4 nodes) or has no interior: every step still bracketed.
+    for cells in [3, 4, 5] {
+        for shape in [Shape::Gimp, Shape::Linear] {
+            let mut fx = Fixture::new(
+                periodic(cells, 1.0),
+                shape,
+                uniform(cells, 1.0, 2),
+                1.0,
+                1.0,
+            );
+            let h = fx.grid.h;
+            follow(&mut fx, CertifiedConfig::default(), 8, |fx, step| {
+                for (p, x) in fx.x.iter_mut().enumerate() {
+                    *x += 1e-2 * h * ((p + step) as f64).sin();
+                }
+            });
+        }
+    }
+}
+
+#[test]
 fn invalid_settings_are_typed_errors() {
     for config in [
         CertifiedConfig {

@@ -209,9 +209,9 @@ impl Accumulators {
 /// One fused pass over the nodes: `y = K_N z`, the generalised Rayleigh quotient
 /// `ρ = zᵀy / Σ m_i z_i²` (active nodes), the power step `next_i = y_i/(m_i ρ_prev)` (0 at
 /// inactive nodes; the scaling only keeps the magnitude near 1), and whether some active
-/// `K(i,i)/m_i` exceeds `bound`. `None` when the pass cannot be trusted (sizes, a node that
-/// became inactive under a non-zero `z_i`, a non-finite or non-positive value) — the caller
-/// then anchors, whose full validation reports errors.
+/// `K(i,i)/m_i` exceeds `bound`. `None` when the pass cannot be trusted (sizes, under 4
+/// nodes, a node that became inactive under a non-zero `z_i`, a non-finite or non-positive
+/// value) — the caller then anchors, whose full validation reports errors.
 ///
 /// The power step `z ← M⁻¹K_N z` is the power iteration on `C` in the variable `z = M^{1/2}u`
 /// (`C u = M^{1/2} K_N z`); for a positive semi-definite `C` the Rayleigh quotients of power
@@ -226,7 +226,7 @@ fn power_pass(
     bound: f64,
 ) -> Option<Pass> {
     let n = z.len();
-    if k.diag.len() != n || k.off.len() != n || mass.len() != n || active.len() != n || n < 3 {
+    if k.diag.len() != n || k.off.len() != n || mass.len() != n || active.len() != n || n < 4 {
         return None;
     }
     next.clear();
