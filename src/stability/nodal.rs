@@ -31,7 +31,7 @@
 //! In 2D/3D the same reduction holds with `K_N` a sparse nodal matrix of the stencil's
 //! bandwidth; only the storage here is 1D.
 
-use super::error::{check_nodes, check_view, StabilityError};
+use super::error::{all_finite, check_nodes, check_view, StabilityError};
 use super::lambda_max::SymmetricOperator;
 use crate::grid::Boundary;
 use crate::nodal_stiffness::NodalStiffness;
@@ -74,8 +74,14 @@ fn scale_bands(
     c_diag.extend(k.diag.iter().zip(scale).map(|(k, s)| k * s * s));
     c_off.clear();
     c_off.resize(n, [0.0; 2]);
-    for (i, (c, kk)) in c_off.iter_mut().zip(&k.off).enumerate() {
-        for (o, (c, kk)) in c.iter_mut().zip(kk).enumerate() {
+    // Rows with both neighbours in range need no wrap test (every row but the last two).
+    let inner = n.saturating_sub(2);
+    for (i, (c, kk)) in c_off[..inner].iter_mut().zip(&k.off[..inner]).enumerate() {
+        let (s0, s1, s2) = (scale[i], scale[i + 1], scale[i + 2]);
+        *c = [kk[0] * s0 * s1, kk[1] * s0 * s2];
+    }
+    for i in inner..n {
+        for (o, (c, kk)) in c_off[i].iter_mut().zip(k.off[i]).enumerate() {
             if let Some(j) = neighbour(n, periodic, i, o + 1) {
                 *c = kk * scale[i] * scale[j];
             }
@@ -126,13 +132,16 @@ impl NodalOperator {
         match view.nodal_stiffness {
             Some(k) => {
                 check_nodes(view)?;
-                let values = k.diag.iter().chain(k.off.iter().flatten());
-                if let Some((index, &value)) = values.enumerate().find(|(_, v)| !v.is_finite()) {
-                    return Err(StabilityError::InvalidField {
-                        field: "nodal_stiffness",
-                        index,
-                        value,
-                    });
+                if !(all_finite(&k.diag) && all_finite(k.off.as_flattened())) {
+                    let values = k.diag.iter().chain(k.off.iter().flatten());
+                    if let Some((index, &value)) = values.enumerate().find(|(_, v)| !v.is_finite())
+                    {
+                        return Err(StabilityError::InvalidField {
+                            field: "nodal_stiffness",
+                            index,
+                            value,
+                        });
+                    }
                 }
             }
             None => check_view(view)?,
@@ -142,13 +151,11 @@ impl NodalOperator {
         self.periodic = periodic;
         self.h = view.grid.h;
         self.scale.clear();
+        // Branch-free (so that it vectorises): the root is taken everywhere and masked.
         self.scale
             .extend(view.node_mass.iter().zip(view.node_active).map(|(&m, &a)| {
-                if a {
-                    1.0 / m.sqrt()
-                } else {
-                    0.0
-                }
+                let s = 1.0 / m.sqrt();
+                f64::from_bits(s.to_bits() & (a as u64).wrapping_neg())
             }));
         let k = match view.nodal_stiffness {
             Some(k) if k.diag.len() == n && k.off.len() == n => k,
