@@ -115,7 +115,7 @@ fn run(c: &Case) -> Run {
 
 proptest! {
     #![proptest_config(ProptestConfig {
-        cases: 48,
+        cases: 48, rng_seed: proptest::test_runner::RngSeed::Fixed(0x5EED_CA5E),
         failure_persistence: Some(Box::new(FileFailurePersistence::Direct(
             "proptest-regressions/controller_dt_selection.txt",
         ))),

@@ -92,7 +92,7 @@ fn mapped_recovery_degrades_on_jittered_layouts() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 96, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: 96, rng_seed: proptest::test_runner::RngSeed::Fixed(0x5EED_CA5E), ..ProptestConfig::default() })]
     #[test]
     fn jittered_index_stays_near_one(
         seed in 0u64..1_000_000,

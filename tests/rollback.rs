@@ -89,6 +89,7 @@ fn scenario() -> impl Strategy<Value = Scenario> {
 fn config() -> ProptestConfig {
     ProptestConfig {
         cases: 96,
+        rng_seed: proptest::test_runner::RngSeed::Fixed(0x5EED_CA5E),
         failure_persistence: Some(Box::new(FileFailurePersistence::Direct(
             "proptest-regressions/rollback.txt",
         ))),

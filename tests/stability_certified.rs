@@ -65,13 +65,13 @@ fn follow(
             worst_served = worst_served.min(value / dense);
         }
         // A certified value is bisected to within the margin of the truth; a served one is
-        // the anchor's certified ratio times its quotient, which is high when the quotient
-        // has improved since the anchor (measured: at most 2.4 % above, on the proptest's
-        // random layouts; 0.1 % on the named ones).
+        // the anchor's certified ratio times its quotient, re-certified when the quotient
+        // rises under a loose ratio (measured: at most 0.16 % above; 3.3 % before that
+        // trigger existed).
         let loosest = if c.certified {
             (1.0 + config.margin) * (1.0 + 1e-9)
         } else {
-            1.03
+            1.01
         };
         assert!(
             value <= loosest * dense,
@@ -310,7 +310,7 @@ fn grid_of(fixed_ends: bool, cells: usize) -> Grid {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 32, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: 32, rng_seed: proptest::test_runner::RngSeed::Fixed(0x5EED_CA5E), ..ProptestConfig::default() })]
 
     /// Random layouts, shapes, boundaries and per-particle moduli, moved by random small
     /// displacements over a few steps: the bracket holds at every step.

@@ -85,7 +85,7 @@ fn uniform_gimp_gives_four_and_h_over_sqrt2_c() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 48, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: 48, rng_seed: proptest::test_runner::RngSeed::Fixed(0x5EED_CA5E), ..ProptestConfig::default() })]
 
     /// Lanczos (cold start, tight tolerance) equals the dense eigenvalue to 1e-6 relative on
     /// random layouts, both shapes and both boundaries, per-particle moduli and masses.

@@ -237,3 +237,26 @@ fn cached_lambda_max_follows_a_collapsing_layout() {
     assert!(updates < steps / 3, "{updates} updates in {steps} steps");
     assert!(updates > 1, "the collapse must trigger updates");
 }
+
+#[test]
+fn default_limit_equals_the_default_config() {
+    let mut fx = Fixture::new(
+        periodic(16, 1.0),
+        Shape::Gimp,
+        jittered(16, 1.0, 2, 0.5, 4),
+        1.0,
+        1.0,
+    );
+    let mut a = Stability::default();
+    let mut b = Stability::new(StabilityConfig::default()).unwrap();
+    let h = fx.grid.h;
+    for step in 0..30 {
+        for (p, x) in fx.x.iter_mut().enumerate() {
+            *x += 2e-3 * h * ((p + step) as f64).sin();
+        }
+        fx.refresh();
+        let view = fx.view();
+        let (pa, pb) = (a.propose(&view).unwrap(), b.propose(&view).unwrap());
+        assert_eq!(pa.dt.to_bits(), pb.dt.to_bits(), "step {step}");
+    }
+}

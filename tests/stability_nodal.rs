@@ -182,7 +182,7 @@ fn bad_state_gives_typed_errors() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 48, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: 48, rng_seed: proptest::test_runner::RngSeed::Fixed(0x5EED_CA5E), ..ProptestConfig::default() })]
 
     /// Random layouts: nodal and particle λmax agree to round-off.
     #[test]

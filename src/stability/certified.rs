@@ -30,6 +30,9 @@
 //! * some active node has `K_N(i,i)/m_i > λ̂` — a diagonal entry of `C` is itself a Rayleigh
 //!   quotient, so a mode localised at a light node is above the tracked value (linear hats,
 //!   particles crossing a node);
+//! * the anchor certified a ratio `r` above `1 + 2·margin` (its mode was far below the top)
+//!   and `ρ` has since risen by more than `2·margin`: served values `r ρ` would overstate
+//!   λmax by that rise;
 //! * the nodes changed (count, activity), or a value is not finite (the anchor's full
 //!   validation then reports it as a typed error).
 //!
@@ -38,9 +41,9 @@
 //! the anchor's certified ratio `r` (`1 + margin` when the served mode certified first time),
 //! with the detectors above — not a proof. Measured against dense eigenvalues
 //! (`tests/stability_certified.rs`): served values between 2.0 % below (a stale mode within
-//! `drop_tol`) and 2.3 % above (a mode that improved since the anchor) the true λmax, i.e.
-//! `dt_eq56` within about 1 % either way, inside the `Stability` safety factor. The previous default (a Lanczos update per step with periodic cold
-//! restarts) gave no proof at any step; `certify_every = 1` gives one at every step, at about
+//! `drop_tol`) and 0.16 % above the true λmax, i.e. `dt_eq56` at most 1 % high, inside the
+//! `Stability` safety factor. The previous default (a Lanczos update per step with periodic
+//! cold restarts) gave no proof at any step; `certify_every = 1` gives one at every step, at about
 //! a fifth of a solver step each (the `LDLᵀ` pass is a chain of divisions).
 
 use super::certificate::{below_shift, ROUNDING};
@@ -152,7 +155,7 @@ pub struct CertifiedState {
 
 /// `λmax` of the nodal eq 56 operator by a Rayleigh quotient per step, certified at anchors
 /// (module docs).
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 pub struct CertifiedTracker {
     config: CertifiedConfig,
     lanczos: LanczosConfig,
@@ -317,18 +320,41 @@ fn power_pass(
     })
 }
 
+impl Default for CertifiedTracker {
+    /// The default settings (as [`Self::new`] builds them).
+    fn default() -> Self {
+        Self {
+            config: CertifiedConfig::default(),
+            lanczos: LanczosConfig::default(),
+            tracker: Self::anchor_tracker(LanczosConfig::default()),
+            anchor: None,
+            next: Vec::new(),
+        }
+    }
+}
+
 impl CertifiedTracker {
+    /// The Lanczos tracker of the anchors: no periodic cold restarts, since the certificate
+    /// catches what they were for.
+    fn anchor_tracker(lanczos: LanczosConfig) -> LambdaMaxTracker {
+        let mut tracker = LambdaMaxTracker::default_tracker();
+        tracker.set_config(LanczosConfig {
+            restart_every: 0,
+            ..lanczos
+        });
+        tracker
+    }
+
     /// A tracker with the given settings and the Lanczos settings of its anchors (validated).
     pub fn new(config: CertifiedConfig, lanczos: LanczosConfig) -> Result<Self, StabilityError> {
         config.validate()?;
         Ok(Self {
             config,
             lanczos,
-            // No periodic cold restarts: the certificate catches what they were for.
-            tracker: LambdaMaxTracker::new(LanczosConfig {
-                restart_every: 0,
-                ..lanczos
-            })?,
+            tracker: {
+                lanczos.validate()?;
+                Self::anchor_tracker(lanczos)
+            },
             anchor: None,
             next: Vec::new(),
         })
@@ -393,7 +419,12 @@ impl CertifiedTracker {
                 let due = anchor.served + 1 >= self.config.certify_every;
                 let dropped = p.rayleigh < (1.0 - self.config.drop_tol) * anchor.rayleigh;
                 let above = p.diagonal_above;
-                if !(due || dropped || above) {
+                // A mode served with a large certified ratio that has since improved would
+                // overstate λmax by that improvement: re-certify it (usually one
+                // factorisation, after which the ratio is 1 + margin again).
+                let loose = 1.0 + 2.0 * margin;
+                let rose = anchor.ratio > loose && p.rayleigh > loose * anchor.rayleigh;
+                if !(due || dropped || above || rose) {
                     anchor.served += 1;
                     anchor.last_rayleigh = p.rayleigh;
                     std::mem::swap(&mut anchor.z, &mut self.next);
@@ -405,7 +436,7 @@ impl CertifiedTracker {
                         factorisations: 0,
                     });
                 }
-                tracing::trace!(due, dropped, above, "lambda_max: anchoring");
+                tracing::trace!(due, dropped, above, rose, "lambda_max: anchoring");
                 hint = Some(p.rayleigh);
                 // Keep the power step: it can only improve the mode the anchor certifies.
                 std::mem::swap(&mut anchor.z, &mut self.next);

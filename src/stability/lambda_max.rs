@@ -244,6 +244,11 @@ impl LambdaMaxTracker {
         self.config
     }
 
+    /// Replaces the settings (crate-internal: callers validate them first).
+    pub(crate) fn set_config(&mut self, config: LanczosConfig) {
+        self.config = config;
+    }
+
     /// The last estimate, if any.
     pub fn last(&self) -> Option<LambdaEstimate> {
         self.last

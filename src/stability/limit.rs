@@ -96,8 +96,9 @@ pub struct StabilityConfig {
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case", deny_unknown_fields)]
 pub enum Tracking {
-    /// A rigorous upper bound at every proposal, re-anchored by Lanczos plus an `LDLᵀ`
-    /// certificate when it drifts ([`CertifiedTracker`]). The default.
+    /// A Rayleigh quotient and a power step per proposal (one pass over the nodes), certified
+    /// by an `LDLᵀ` inertia test every 20 proposals or when it looks stale, with Lanczos only
+    /// when a certificate fails ([`CertifiedTracker`]). The default.
     Certified(CertifiedConfig),
     /// The Lanczos Ritz value (a lower bound on `λmax`), recomputed as [`Refresh`] says.
     Lanczos(Refresh),
@@ -268,7 +269,8 @@ fn check_safety(safety: f64) -> Result<(), StabilityError> {
     }
 }
 
-/// The stability limit (eqs 56 and 58).
+/// The stability limit (eqs 56 and 58). `Stability::default()` is `Stability::new` with
+/// [`StabilityConfig::default`].
 #[derive(Clone, Debug, Default)]
 pub struct Stability {
     config: StabilityConfig,
@@ -279,7 +281,7 @@ pub struct Stability {
     /// The nodal form of the eq 56 operator, rebuilt in place at each update.
     nodal: NodalOperator,
     reference: Option<RefreshReference>,
-    /// The estimate the last proposal used (the certified upper bound in the default mode).
+    /// The estimate the last proposal used (in the default mode the served or certified value).
     current: Option<LambdaEstimate>,
     /// Whether eq 58 is due on the trial of the last proposal.
     fresh: bool,
