@@ -416,7 +416,7 @@ impl CertifiedTracker {
                 lambda_anchor,
             );
             if let Some(p) = pass {
-                let due = anchor.served + 1 >= self.config.certify_every;
+                let due = anchor.served.saturating_add(1) >= self.config.certify_every;
                 let dropped = p.rayleigh < (1.0 - self.config.drop_tol) * anchor.rayleigh;
                 let above = p.diagonal_above;
                 // A mode served with a large certified ratio that has since improved would
@@ -425,7 +425,7 @@ impl CertifiedTracker {
                 let loose = 1.0 + 2.0 * margin;
                 let rose = anchor.ratio > loose && p.rayleigh > loose * anchor.rayleigh;
                 if !(due || dropped || above || rose) {
-                    anchor.served += 1;
+                    anchor.served = anchor.served.saturating_add(1);
                     anchor.last_rayleigh = p.rayleigh;
                     std::mem::swap(&mut anchor.z, &mut self.next);
                     let lambda = anchor.ratio * p.rayleigh;
