@@ -22,7 +22,8 @@
 //!   updates (the previous default); `propose_certified` — the default certified tracking
 //!   (a Rayleigh-quotient pass per proposal, an `LDLᵀ` certificate every 20: the mean
 //!   per-step cost); `propose_certified_served_only` — the served pass alone (no
-//!   certificate); `propose_certified_every_step` — a certificate at every proposal.
+//!   certificate); `propose_certified_every_step` — a certificate at every proposal;
+//!   `propose_certified_served_same_state` — the served pass on one state, repeatedly.
 //!
 //! It also prints the applications of `B` per step over 30 steps (the periodic cold restarts
 //! included), from which the average per-step cost follows as a multiple of `operator_apply`.
@@ -198,6 +199,15 @@ fn bench(c: &mut Criterion) {
                         .expect("valid"),
                 )
             })
+        });
+    }
+    {
+        // The served pass on one state proposed repeatedly (its data stays in cache), against
+        // the alternating pair above (twice the data).
+        let mut l = Stability::new(certified(u32::MAX)).expect("valid config");
+        l.propose(&view_k).expect("valid");
+        g.bench_function("propose_certified_served_same_state", |b| {
+            b.iter(|| black_box(l.propose(&view_k).expect("valid")))
         });
     }
     g.finish();
