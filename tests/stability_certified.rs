@@ -146,11 +146,7 @@ fn bracket_follows_a_linear_hat_collapse() {
     let steps = 120;
     let f = follow(&mut fx, CertifiedConfig::default(), steps + 1, |fx, s| {
         let a = s as f64 / steps as f64;
-        fx.x = start
-            .iter()
-            .zip(&end)
-            .map(|(x0, x1)| x0 + a * (x1 - x0))
-            .collect();
+        fx.x = interpolate(&start, &end, a);
     });
     println!(
         "linear-hat collapse: {} certificates in {} steps, worst served/dense {:.6}",
@@ -185,11 +181,7 @@ fn the_stability_limit_follows_the_exact_eq56_step_through_a_collapse() {
     let mut worst = 0.0_f64;
     for s in 0..=steps {
         let a = s as f64 / steps as f64;
-        fx.x = start
-            .iter()
-            .zip(&end)
-            .map(|(x0, x1)| x0 + a * (x1 - x0))
-            .collect();
+        fx.x = interpolate(&start, &end, a);
         fx.refresh();
         let view = fx.view();
         let p = limit.propose(&view).unwrap();

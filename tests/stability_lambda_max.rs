@@ -203,11 +203,7 @@ fn linear_hat_small_mass_collapse_is_tracked() {
     let mut last = (0.0, 0.0);
     for s in 0..=steps {
         let a = s as f64 / steps as f64;
-        fx.x = start
-            .iter()
-            .zip(&end)
-            .map(|(x0, x1)| x0 + a * (x1 - x0))
-            .collect();
+        fx.x = interpolate(&start, &end, a);
         fx.refresh();
         let view = fx.view();
         let op = Eq56Operator::new(&view).unwrap();

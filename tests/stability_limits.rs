@@ -207,11 +207,7 @@ fn cached_lambda_max_follows_a_collapsing_layout() {
     let mut updates = 0;
     for s in 0..=steps {
         let a = s as f64 / steps as f64;
-        fx.x = start
-            .iter()
-            .zip(&end)
-            .map(|(x0, x1)| x0 + a * (x1 - x0))
-            .collect();
+        fx.x = interpolate(&start, &end, a);
         fx.refresh();
         let view = fx.view();
         let p = cached.propose(&view).unwrap();

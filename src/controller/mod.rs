@@ -417,8 +417,8 @@ impl Controller {
                         t,
                     });
                 }
-                let mut metrics = Metrics::new();
-                finite_metrics(&mut metrics, p.metrics);
+                let mut metrics = p.metrics;
+                metrics.retain(|_, v| v.is_finite());
                 if p.dt.is_finite() {
                     bounds.push((BoundName::Limit(index), p.dt));
                 }

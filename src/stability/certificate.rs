@@ -114,10 +114,18 @@ pub fn below_shift(diag: &[f64], off: &[[f64; 2]], periodic: bool, mu: f64) -> b
 /// distance 1 and 2 can land on the same pair of nodes and add up).
 fn below_shift_dense(diag: &[f64], off: &[[f64; 2]], periodic: bool, mu: f64) -> bool {
     let n = diag.len();
-    let mut a = DMatrix::<f64>::zeros(n, n);
+    let a = DMatrix::<f64>::identity(n, n) * mu - band_to_dense(diag, off, periodic);
+    a.iter().all(|v| v.is_finite()) && Cholesky::new(a).is_some()
+}
+
+/// The dense symmetric matrix of the band storage of [`below_shift`] (aliased couplings of a
+/// small periodic grid added up).
+fn band_to_dense(diag: &[f64], off: &[[f64; 2]], periodic: bool) -> DMatrix<f64> {
+    let n = diag.len();
+    let mut c = DMatrix::<f64>::zeros(n, n);
     for i in 0..n {
-        a[(i, i)] += mu - diag[i];
-        for (o, c) in off[i].iter().enumerate() {
+        c[(i, i)] += diag[i];
+        for (o, &v) in off[i].iter().enumerate() {
             let j = i + o + 1;
             let j = if j < n {
                 j
@@ -128,45 +136,20 @@ fn below_shift_dense(diag: &[f64], off: &[[f64; 2]], periodic: bool, mu: f64) ->
             };
             if j == i {
                 // A self-coupling through the wrap (n ≤ 2): a diagonal contribution.
-                a[(i, i)] -= 2.0 * c;
+                c[(i, i)] += 2.0 * v;
             } else {
-                a[(i, j)] -= c;
-                a[(j, i)] -= c;
+                c[(i, j)] += v;
+                c[(j, i)] += v;
             }
         }
     }
-    a.iter().all(|v| v.is_finite()) && Cholesky::new(a).is_some()
+    c
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use nalgebra::SymmetricEigen;
-
-    fn dense(diag: &[f64], off: &[[f64; 2]], periodic: bool) -> DMatrix<f64> {
-        let n = diag.len();
-        let mut c = DMatrix::<f64>::zeros(n, n);
-        for i in 0..n {
-            c[(i, i)] += diag[i];
-            for (o, v) in off[i].iter().enumerate() {
-                let j = i + o + 1;
-                let j = if j < n {
-                    j
-                } else if periodic {
-                    j % n
-                } else {
-                    continue;
-                };
-                if j == i {
-                    c[(i, i)] += 2.0 * v;
-                } else {
-                    c[(i, j)] += v;
-                    c[(j, i)] += v;
-                }
-            }
-        }
-        c
-    }
 
     fn lcg(seed: &mut u64) -> f64 {
         *seed = seed
@@ -194,7 +177,7 @@ mod tests {
                         }
                     }
                 }
-                let eig = SymmetricEigen::new(dense(&diag, &off, periodic)).eigenvalues;
+                let eig = SymmetricEigen::new(band_to_dense(&diag, &off, periodic)).eigenvalues;
                 let lmax = eig.iter().copied().fold(f64::NEG_INFINITY, f64::max);
                 assert!(
                     below_shift(&diag, &off, periodic, lmax * (1.0 + 1e-9) + 1e-12),

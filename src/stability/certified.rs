@@ -158,7 +158,6 @@ pub struct CertifiedState {
 #[derive(Clone, Debug)]
 pub struct CertifiedTracker {
     config: CertifiedConfig,
-    lanczos: LanczosConfig,
     tracker: LambdaMaxTracker,
     anchor: Option<Anchor>,
     /// Scratch for the power step (swapped with the anchor's `z`).
@@ -173,8 +172,17 @@ struct Pass {
     diagonal_above: bool,
 }
 
-/// The running sums of [`power_pass`].
-struct Accumulators {
+/// What [`power_pass`] reads at every node, and its running sums.
+struct PowerPass<'a> {
+    kd: &'a [f64],
+    ko: &'a [[f64; 2]],
+    mass: &'a [f64],
+    active: &'a [bool],
+    z: &'a [f64],
+    /// `1/ρ_prev`, the power step's scaling.
+    inv_rho: f64,
+    /// The diagonal test `K(i,i) > bound · m_i`.
+    bound: f64,
     num: f64,
     den: f64,
     min_mass: f64,
@@ -182,30 +190,35 @@ struct Accumulators {
     stale: bool,
 }
 
-impl Accumulators {
-    /// Node `i` with `y = (K_N z)_i`: the Rayleigh sums, the checks and the power step.
+impl PowerPass<'_> {
+    /// Node `i` with `y = (K_N z)_i`: the Rayleigh sums, the checks and the power step
+    /// (every `next_i` is written: 0 at inactive nodes).
     #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
-    fn node(
-        &mut self,
-        y: f64,
-        zi: f64,
-        m: f64,
-        active: bool,
-        k_ii: f64,
-        bound: f64,
-        inv_rho: f64,
-        next: &mut f64,
-    ) {
+    fn node(&mut self, i: usize, y: f64, next: &mut f64) {
+        let (zi, m) = (self.z[i], self.mass[i]);
         self.num += zi * y;
-        if active {
+        if self.active[i] {
             self.den += m * zi * zi;
             self.min_mass = self.min_mass.min(m);
-            self.above |= k_ii > bound * m;
-            *next = y * inv_rho / m;
+            self.above |= self.kd[i] > self.bound * m;
+            *next = y * self.inv_rho / m;
         } else {
             self.stale |= zi != 0.0;
+            *next = 0.0;
         }
+    }
+
+    /// `(K_N z)_i` with the indices wrapped (entries past a fixed grid's last node are zero
+    /// in `K_N`'s storage, so the wrap adds nothing there): the first and last two rows.
+    fn wrapped_row(&self, i: usize) -> f64 {
+        let n = self.z.len() as isize;
+        let w = |j: isize| j.rem_euclid(n) as usize;
+        let (ii, z, ko) = (i as isize, self.z, self.ko);
+        self.kd[i] * z[i]
+            + ko[i][0] * z[w(ii + 1)]
+            + ko[i][1] * z[w(ii + 2)]
+            + ko[w(ii - 1)][0] * z[w(ii - 1)]
+            + ko[w(ii - 2)][1] * z[w(ii - 2)]
     }
 }
 
@@ -219,6 +232,9 @@ impl Accumulators {
 /// The power step `z ← M⁻¹K_N z` is the power iteration on `C` in the variable `z = M^{1/2}u`
 /// (`C u = M^{1/2} K_N z`); for a positive semi-definite `C` the Rayleigh quotients of power
 /// iterates never decrease, so the step can only improve the tracked mode between anchors.
+///
+/// One loop over the interior: a two-pass vectorised variant measured slower on the
+/// 10⁵-particle bench (352 µs against 221 µs), though faster with the arrays in cache.
 fn power_pass(
     k: &NodalStiffness,
     mass: &[f64],
@@ -232,91 +248,45 @@ fn power_pass(
     if k.diag.len() != n || k.off.len() != n || mass.len() != n || active.len() != n || n < 4 {
         return None;
     }
-    next.clear();
+    // Every entry is written below, so the buffer is only sized, not cleared.
     next.resize(n, 0.0);
-    let inv_rho = if rho_prev > 0.0 { 1.0 / rho_prev } else { 1.0 };
-    let mut acc = Accumulators {
+    let mut pass = PowerPass {
+        kd: &k.diag[..n],
+        ko: &k.off[..n],
+        mass: &mass[..n],
+        active: &active[..n],
+        z: &z[..n],
+        inv_rho: if rho_prev > 0.0 { 1.0 / rho_prev } else { 1.0 },
+        bound,
         num: 0.0,
         den: 0.0,
         min_mass: f64::INFINITY,
         above: false,
         stale: false,
     };
-    let (kd, ko, z, mass, active) = (&k.diag[..n], &k.off[..n], &z[..n], &mass[..n], &active[..n]);
     let next = &mut next[..n];
-    // Row i of K_N z: K(i,i) z_i + K(i,i+1) z_{i+1} + K(i,i+2) z_{i+2} + K(i−1,i) z_{i−1}
-    // + K(i−2,i) z_{i−2}, indices wrapped (entries past a fixed grid's last node are zero in
-    // K_N's storage, so the wrap adds nothing there).
-    let w = |i: isize| i.rem_euclid(n as isize) as usize;
-    let row = |i: usize| -> f64 {
-        let ii = i as isize;
-        kd[i] * z[i]
-            + ko[i][0] * z[w(ii + 1)]
-            + ko[i][1] * z[w(ii + 2)]
-            + ko[w(ii - 1)][0] * z[w(ii - 1)]
-            + ko[w(ii - 2)][1] * z[w(ii - 2)]
-    };
     for i in [0, 1] {
-        let y = row(i);
-        acc.node(
-            y,
-            z[i],
-            mass[i],
-            active[i],
-            kd[i],
-            bound,
-            inv_rho,
-            &mut next[i],
-        );
+        let y = pass.wrapped_row(i);
+        pass.node(i, y, &mut next[i]);
     }
-    // The interior in blocks of LANES nodes with per-lane partial sums and branch-free
-    // selects, so the compiler vectorises it (the division of the power step dominates a
-    // scalar loop). The partial sums are added in a fixed order: the result is deterministic.
-    // One loop over the interior: the pass is bound by memory traffic (K_N, masses and z
-    // read once, z written once), and a two-pass vectorised variant measured slower on the
-    // 10⁵-particle bench (352 µs against 221 µs), though faster with the arrays in cache.
+    let (kd, ko, zz) = (pass.kd, pass.ko, pass.z);
     for i in 2..n - 2 {
-        let y = kd[i] * z[i]
-            + ko[i][0] * z[i + 1]
-            + ko[i][1] * z[i + 2]
-            + ko[i - 1][0] * z[i - 1]
-            + ko[i - 2][1] * z[i - 2];
-        acc.node(
-            y,
-            z[i],
-            mass[i],
-            active[i],
-            kd[i],
-            bound,
-            inv_rho,
-            &mut next[i],
-        );
+        let y = kd[i] * zz[i]
+            + ko[i][0] * zz[i + 1]
+            + ko[i][1] * zz[i + 2]
+            + ko[i - 1][0] * zz[i - 1]
+            + ko[i - 2][1] * zz[i - 2];
+        pass.node(i, y, &mut next[i]);
     }
     for i in [n - 2, n - 1] {
-        let y = row(i);
-        acc.node(
-            y,
-            z[i],
-            mass[i],
-            active[i],
-            kd[i],
-            bound,
-            inv_rho,
-            &mut next[i],
-        );
+        let y = pass.wrapped_row(i);
+        pass.node(i, y, &mut next[i]);
     }
-    let Accumulators {
-        num,
-        den,
-        min_mass,
-        above,
-        stale,
-    } = acc;
-    let rayleigh = num / den;
-    let valid = !stale && rayleigh.is_finite() && rayleigh >= 0.0 && min_mass > 0.0;
+    let rayleigh = pass.num / pass.den;
+    let valid = !pass.stale && rayleigh.is_finite() && rayleigh >= 0.0 && pass.min_mass > 0.0;
     valid.then_some(Pass {
         rayleigh,
-        diagonal_above: above,
+        diagonal_above: pass.above,
     })
 }
 
@@ -325,7 +295,6 @@ impl Default for CertifiedTracker {
     fn default() -> Self {
         Self {
             config: CertifiedConfig::default(),
-            lanczos: LanczosConfig::default(),
             tracker: Self::anchor_tracker(LanczosConfig::default()),
             anchor: None,
             next: Vec::new(),
@@ -348,13 +317,10 @@ impl CertifiedTracker {
     /// A tracker with the given settings and the Lanczos settings of its anchors (validated).
     pub fn new(config: CertifiedConfig, lanczos: LanczosConfig) -> Result<Self, StabilityError> {
         config.validate()?;
+        lanczos.validate()?;
         Ok(Self {
             config,
-            lanczos,
-            tracker: {
-                lanczos.validate()?;
-                Self::anchor_tracker(lanczos)
-            },
+            tracker: Self::anchor_tracker(lanczos),
             anchor: None,
             next: Vec::new(),
         })
@@ -536,8 +502,8 @@ impl CertifiedTracker {
                 tol: 1e-8,
                 value_tol: 0.0,
                 restart_every: 0,
-                max_iter: self.lanczos.max_iter.max(200),
-                ..self.lanczos
+                max_iter: self.tracker.config().max_iter.max(200),
+                ..self.tracker.config()
             };
             self.tracker.reset();
             let cold = self.tracker.update_with(op, tight)?;

@@ -129,3 +129,13 @@ pub fn periodic(cells: usize, length: f64) -> Grid {
 pub fn fixed(cells: usize, length: f64) -> Grid {
     Grid::new(Boundary::Fixed, cells, length)
 }
+
+/// The layout a fraction `a ∈ [0, 1]` of the way from `start` to `end`, particle by particle
+/// (the collapsing linear-hat layouts of the tracking tests).
+pub fn interpolate(start: &[f64], end: &[f64], a: f64) -> Vec<f64> {
+    start
+        .iter()
+        .zip(end)
+        .map(|(x0, x1)| x0 + a * (x1 - x0))
+        .collect()
+}
