@@ -15,6 +15,8 @@
 //! * `nodal_rebuild_from_stepper_kn` — building `C`'s bands from the stepper's `K_N` (what an
 //!   anchor does before its certificate);
 //! * `certificate_ldlt` — one `LDLᵀ` inertia test of `μI − C` (the certificate);
+//! * `certificate_pencil_from_stepper_kn` — the same test on the pencil `μ diag(m) − K_N`
+//!   from the stepper's `K_N` (what an anchor runs first: no operator build);
 //! * `propose_*` — `Stability::propose` as the controller runs it (the stepper provides
 //!   `K_N`), alternating between two states one step apart:
 //!   `propose_lanczos_with_restarts` / `propose_lanczos_warm_only` — the Lanczos tracking of
@@ -32,6 +34,7 @@
 use criterion::{criterion_group, criterion_main, Criterion};
 use mpm_dt::mpm::{Material, ReferenceStepper};
 use mpm_dt::problems::StandingWave;
+use mpm_dt::stability::certificate::below_shift_pencil;
 use mpm_dt::stability::{
     CertifiedConfig, Eq56Operator, LambdaMaxTracker, LanczosConfig, NodalOperator, Refresh,
     Stability, StabilityConfig, SymmetricOperator, Tracking,
@@ -163,6 +166,26 @@ fn bench(c: &mut Criterion) {
         let mut op = NodalOperator::new(&view_k).expect("valid");
         g.bench_function("nodal_rebuild_from_stepper_kn", |b| {
             b.iter(|| op.rebuild(black_box(&view_k)).expect("valid"))
+        });
+        let lam = LambdaMaxTracker::default()
+            .update(&op)
+            .expect("valid")
+            .lambda_b;
+        let k = view_k.nodal_stiffness.expect("provided");
+        assert_eq!(
+            below_shift_pencil(k, view_k.node_mass, view_k.node_active, true, lam * 1.001),
+            Some(true)
+        );
+        g.bench_function("certificate_pencil_from_stepper_kn", |b| {
+            b.iter(|| {
+                black_box(below_shift_pencil(
+                    k,
+                    view_k.node_mass,
+                    view_k.node_active,
+                    true,
+                    black_box(lam * 1.001),
+                ))
+            })
         });
     }
     let lanczos = |restart_every| StabilityConfig {

@@ -11,18 +11,28 @@
 //! certifies `θ ≤ λmax(C) < μ`. Its cost is a chain of one division per node (measured:
 //! README "Stability").
 //!
-//! **Rounding.** A Cholesky (`LDLᵀ`) factorisation that completes in floating point is the
-//! exact factorisation of `A + ΔA` with `|ΔA| ≤ γ_{w+1} |L||Lᵀ|` (Higham, *Accuracy and
-//! Stability of Numerical Algorithms*, Thm 10.5, `w = 2` the half-bandwidth, `γ_k ≈ k u`),
-//! and for a positive definite `A` the entries of `|L||Lᵀ|` are at most `max_i A_ii`; with at
-//! most 5 non-zeros per row `‖ΔA‖₂ ≤ 15 u μ`. A successful test therefore proves
-//! `λmax(C) < μ (1 + 15u)`; [`ROUNDING`] adds that slack to every certified bound.
+//! **Rounding.** An `LDLᵀ` (Cholesky) factorisation that completes in floating point is the
+//! exact factorisation of `A + ΔA` with `|ΔA_ij| ≤ γ_{k+1} (|L||D||Lᵀ|)_ij`, `k` the length
+//! of the inner product that forms entry `(i, j)` and `γ_k = k u/(1 − k u)` (Higham,
+//! *Accuracy and Stability of Numerical Algorithms*, Thm 10.5 and §10.4), and for a positive
+//! definite `A` Cauchy–Schwarz gives `(|L||D||Lᵀ|)_ij ≤ √(A_ii A_jj) ≤ μ` (for `A = μI − C`,
+//! `C_ii ≥ 0`). Inside the band every inner product has at most 3 terms: at most 5 entries
+//! per row, `‖ΔA_band‖₂ ≤ 5 γ_3 μ ≈ 15 u μ`. On a periodic grid the border's two columns of
+//! `L` are full (the fill of the forward solve): their `2m` entries with the chain of `m`
+//! nodes have 3-term inner products (`‖·‖₂ ≤ 2 √m γ_3 μ`), and the border's own `2 × 2`
+//! block sums over the whole chain (`γ_{m+2} μ` per entry). In all,
+//! `‖ΔA‖₂ ≤ (15 + 6√n + 2n + 4) u μ ≤ (20 + 3n) u μ` for `n` nodes, so a successful test
+//! proves `λmax(C) < μ (1 + (20 + 3n) u)`; [`rounding_slack`] adds twice that (and at least
+//! `10⁻¹²`) to every certified bound — `3·10⁻¹¹` relative at `5·10⁴` nodes.
 
 use nalgebra::{Cholesky, DMatrix};
 
-/// Relative slack added to a certified bound for the rounding of the factorisation (module
-/// docs: `15 u ≈ 3.3·10⁻¹⁵`, rounded up generously).
-pub const ROUNDING: f64 = 1e-12;
+/// Relative slack added to a certified bound of an `n`-node operator for the rounding of
+/// the factorisation (module docs): `max(10⁻¹², 2 (20 + 3n) u)`, `u = 2⁻⁵³`.
+pub fn rounding_slack(n: usize) -> f64 {
+    let u = f64::EPSILON / 2.0;
+    (2.0 * (20.0 + 3.0 * n as f64) * u).max(1e-12)
+}
 
 /// Whether every eigenvalue of the symmetric band matrix `C` is strictly below `mu`, i.e.
 /// whether `μI − C` is positive definite (one `LDLᵀ` pass; module docs).
@@ -41,6 +51,69 @@ pub fn below_shift(diag: &[f64], off: &[[f64; 2]], periodic: bool, mu: f64) -> b
     if n < 7 {
         return below_shift_dense(diag, off, periodic, mu);
     }
+    positive_definite(n, periodic, |k| mu - diag[k], |k, j| off[k][j])
+}
+
+/// Whether every eigenvalue of `C = M^{1/2} K_N M^{1/2}` is strictly below `mu`, tested on
+/// the pencil without forming `C`: `μI − C` is congruent, on the active nodes, to
+/// `A = μ diag(m) − K_N` (`A = D (μI − C) D` with `D = diag(√m_i)`), so by Sylvester's law of
+/// inertia one is positive definite exactly when the other is. Inactive nodes, where `C`
+/// has zero rows and `μI − C` the pivot `μ`, get the row of the identity. One `LDLᵀ` pass, no
+/// square root and no operator build — what an anchor needs when the stepper provides `K_N`.
+///
+/// **Rounding.** A completed factorisation is exact for `A + ΔA` with
+/// `|ΔA_ij| ≤ γ_3 (|L| D |Lᵀ|)_ij ≤ γ_3 √(A_ii A_jj) ≤ γ_3 μ √(m_i m_j)` (Higham Thm 10.5;
+/// Cauchy–Schwarz for the positive definite `A`; `A_ii ≤ μ m_i` since `K_ii ≥ 0`), so
+/// `D⁻¹ΔA D⁻¹` has entries at most `γ_3 μ`, five per row, and the test proves
+/// `λmax(C) < μ (1 + 15u)` inside the band, and the border adds what it adds to
+/// [`below_shift`]: [`rounding_slack`] covers both.
+///
+/// `None` when the inputs do not fit (sizes; under seven nodes, where [`below_shift`] on the
+/// assembled `C` runs instead); `Some(false)` for non-finite or non-positive values.
+pub fn below_shift_pencil(
+    k: &crate::NodalStiffness,
+    mass: &[f64],
+    active: &[bool],
+    periodic: bool,
+    mu: f64,
+) -> Option<bool> {
+    let n = k.diag.len();
+    if n < 7 || k.off.len() != n || mass.len() != n || active.len() != n {
+        return None;
+    }
+    if !mu.is_finite() {
+        return Some(false);
+    }
+    let (kd, ko) = (&k.diag, &k.off);
+    // An active node's neighbour j + 1 places on: wrapped (periodic), or past the end where
+    // the storage holds zeros anyway (fixed).
+    let coupled = |i: usize, j: usize| {
+        let w = i + j + 1;
+        active[i] && active[if w >= n { w - n } else { w }]
+    };
+    Some(positive_definite(
+        n,
+        periodic,
+        |i| {
+            if active[i] {
+                mu * mass[i] - kd[i]
+            } else {
+                1.0
+            }
+        },
+        |i, j| if coupled(i, j) { ko[i][j] } else { 0.0 },
+    ))
+}
+
+/// The `LDLᵀ` positivity test of the symmetric pentadiagonal `A` with `A(k, k) = a(k)` and
+/// `A(k, k+j+1) = −o(k, j)` (`j = 0, 1`, indices wrapped on periodic grids; `n ≥ 7`).
+#[inline(always)]
+fn positive_definite(
+    n: usize,
+    periodic: bool,
+    a: impl Fn(usize) -> f64,
+    o: impl Fn(usize, usize) -> f64,
+) -> bool {
     // Leading block P: every node on a fixed grid; nodes 0..n−2 on a periodic one, whose two
     // last nodes form the border Q (they carry every wrapped coupling).
     let m = if periodic { n - 2 } else { n };
@@ -48,21 +121,21 @@ pub fn below_shift(diag: &[f64], off: &[[f64; 2]], periodic: bool, mu: f64) -> b
         if !periodic {
             return [0.0; 2];
         }
-        // A(n−2, k) and A(n−1, k) of A = μI − C for k < n − 2.
+        // A(n−2, k) and A(n−1, k) for k < n − 2.
         let mut b = [0.0; 2];
         if k == n - 4 {
-            b[0] = -off[n - 4][1];
+            b[0] = -o(n - 4, 1);
         }
         if k == n - 3 {
-            b[0] = -off[n - 3][0];
-            b[1] = -off[n - 3][1];
+            b[0] = -o(n - 3, 0);
+            b[1] = -o(n - 3, 1);
         }
         if k == 0 {
-            b[0] += -off[n - 2][1];
-            b[1] += -off[n - 1][0];
+            b[0] += -o(n - 2, 1);
+            b[1] += -o(n - 1, 0);
         }
         if k == 1 {
-            b[1] += -off[n - 1][1];
+            b[1] += -o(n - 1, 1);
         }
         b
     };
@@ -77,9 +150,9 @@ pub fn below_shift(diag: &[f64], off: &[[f64; 2]], periodic: bool, mu: f64) -> b
     let (mut y1, mut y2) = ([0.0_f64; 2], [0.0_f64; 2]);
     let mut s = [0.0_f64; 3]; // Σ y yᵀ r: (0,0), (0,1), (1,1)
     for k in 0..m {
-        let a = mu - diag[k];
-        let e = if k >= 1 { -off[k - 1][0] } else { 0.0 };
-        let f = if k >= 2 { -off[k - 2][1] } else { 0.0 };
+        let a = a(k);
+        let e = if k >= 1 { -o(k - 1, 0) } else { 0.0 };
+        let f = if k >= 2 { -o(k - 2, 1) } else { 0.0 };
         let g = e - f * l1;
         let l = g * r1;
         let d = a - g * l - f * f * r2;
@@ -104,9 +177,9 @@ pub fn below_shift(diag: &[f64], off: &[[f64; 2]], periodic: bool, mu: f64) -> b
     if !periodic {
         return true;
     }
-    let q00 = mu - diag[n - 2] - s[0];
-    let q01 = -off[n - 2][0] - s[1];
-    let q11 = mu - diag[n - 1] - s[2];
+    let q00 = a(n - 2) - s[0];
+    let q01 = -o(n - 2, 0) - s[1];
+    let q11 = a(n - 1) - s[2];
     q00 > 0.0 && q00 * q11 - q01 * q01 > 0.0 && q11.is_finite()
 }
 
@@ -189,6 +262,85 @@ mod tests {
                 );
             }
         }
+    }
+
+    #[test]
+    fn the_pencil_test_agrees_with_the_test_on_c() {
+        let mut seed = 11;
+        for n in [7, 8, 9, 17, 40] {
+            for periodic in [false, true] {
+                // K = Σ_p k_p d_p d_pᵀ from random particles on three consecutive nodes (so
+                // positive semi-definite like the stepper's), random masses, some inactive.
+                let mut k = crate::NodalStiffness {
+                    diag: vec![0.0; n],
+                    off: vec![[0.0; 2]; n],
+                    c2_ref: 1.0,
+                };
+                let span = if periodic { n } else { n - 2 };
+                for _ in 0..3 * n {
+                    let base = ((lcg(&mut seed) * span as f64) as usize).min(span - 1);
+                    let d = [
+                        lcg(&mut seed) - 0.5,
+                        lcg(&mut seed) - 0.5,
+                        lcg(&mut seed) - 0.5,
+                    ];
+                    let kp = 0.5 + lcg(&mut seed);
+                    for a in 0..3 {
+                        k.diag[(base + a) % n] += kp * d[a] * d[a];
+                        for b in a + 1..3 {
+                            k.off[(base + a) % n][b - a - 1] += kp * d[a] * d[b];
+                        }
+                    }
+                }
+                let mass: Vec<f64> = (0..n).map(|_| 0.05 + lcg(&mut seed)).collect();
+                let active: Vec<bool> = (0..n).map(|i| i % 5 != 3).collect();
+                // C's bands: K_ij/√(m_i m_j) between active nodes, zero rows elsewhere.
+                let s: Vec<f64> = (0..n)
+                    .map(|i| if active[i] { 1.0 / mass[i].sqrt() } else { 0.0 })
+                    .collect();
+                let diag: Vec<f64> = (0..n).map(|i| k.diag[i] * s[i] * s[i]).collect();
+                let off: Vec<[f64; 2]> = (0..n)
+                    .map(|i| [1, 2].map(|j| k.off[i][j - 1] * s[i] * s[(i + j) % n]))
+                    .collect();
+                let eig = SymmetricEigen::new(band_to_dense(&diag, &off, periodic)).eigenvalues;
+                let lmax = eig.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+                for (mu, expect) in [(lmax * (1.0 + 1e-9), true), (lmax * (1.0 - 1e-9), false)] {
+                    assert_eq!(
+                        below_shift_pencil(&k, &mass, &active, periodic, mu),
+                        Some(expect),
+                        "n {n} periodic {periodic}: μ = {mu} against λmax {lmax}"
+                    );
+                    assert_eq!(below_shift(&diag, &off, periodic, mu), expect);
+                }
+            }
+        }
+        let k = crate::NodalStiffness {
+            diag: vec![1.0; 6],
+            off: vec![[0.0; 2]; 6],
+            c2_ref: 1.0,
+        };
+        assert_eq!(
+            below_shift_pencil(&k, &[1.0; 6], &[true; 6], true, 2.0),
+            None
+        );
+        let mut k = crate::NodalStiffness {
+            diag: vec![1.0; 9],
+            off: vec![[0.1, 0.0]; 9],
+            c2_ref: 1.0,
+        };
+        assert_eq!(
+            below_shift_pencil(&k, &[1.0; 8], &[true; 9], true, 2.0),
+            None
+        );
+        assert_eq!(
+            below_shift_pencil(&k, &[1.0; 9], &[true; 9], true, 2.0),
+            Some(true)
+        );
+        k.off[4][0] = f64::NAN;
+        assert_eq!(
+            below_shift_pencil(&k, &[1.0; 9], &[true; 9], true, 2.0),
+            Some(false)
+        );
     }
 
     #[test]

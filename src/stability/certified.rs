@@ -46,12 +46,12 @@
 //! cold restarts) gave no proof at any step; `certify_every = 1` gives one at every step, at about
 //! a fifth of a solver step each (the `LDLᵀ` pass is a chain of divisions).
 
-use super::certificate::{below_shift, ROUNDING};
+use super::certificate::{below_shift, below_shift_pencil, rounding_slack};
 use super::error::StabilityError;
 use super::lambda_max::{LambdaEstimate, LambdaMaxTracker, LanczosConfig, SymmetricOperator};
 use super::nodal::NodalOperator;
 use super::operator::Eq56Operator;
-use crate::nodal_stiffness::NodalStiffness;
+use super::power_pass::power_pass;
 use crate::stepper::View;
 
 /// Settings of [`CertifiedTracker`].
@@ -162,132 +162,6 @@ pub struct CertifiedTracker {
     anchor: Option<Anchor>,
     /// Scratch for the power step (swapped with the anchor's `z`).
     next: Vec<f64>,
-}
-
-/// What one fused pass over the nodes finds (see [`power_pass`]).
-struct Pass {
-    /// `zᵀ K_N z / zᵀ M z` of the vector before the step.
-    rayleigh: f64,
-    /// Whether some active node has `K_N(i,i) > bound · m_i`.
-    diagonal_above: bool,
-}
-
-/// What [`power_pass`] reads at every node, and its running sums.
-struct PowerPass<'a> {
-    kd: &'a [f64],
-    ko: &'a [[f64; 2]],
-    mass: &'a [f64],
-    active: &'a [bool],
-    z: &'a [f64],
-    /// `1/ρ_prev`, the power step's scaling.
-    inv_rho: f64,
-    /// The diagonal test `K(i,i) > bound · m_i`.
-    bound: f64,
-    num: f64,
-    den: f64,
-    min_mass: f64,
-    above: bool,
-    stale: bool,
-}
-
-impl PowerPass<'_> {
-    /// Node `i` with `y = (K_N z)_i`: the Rayleigh sums, the checks and the power step
-    /// (every `next_i` is written: 0 at inactive nodes).
-    #[inline(always)]
-    fn node(&mut self, i: usize, y: f64, next: &mut f64) {
-        let (zi, m) = (self.z[i], self.mass[i]);
-        self.num += zi * y;
-        if self.active[i] {
-            self.den += m * zi * zi;
-            self.min_mass = self.min_mass.min(m);
-            self.above |= self.kd[i] > self.bound * m;
-            *next = y * self.inv_rho / m;
-        } else {
-            self.stale |= zi != 0.0;
-            *next = 0.0;
-        }
-    }
-
-    /// `(K_N z)_i` with the indices wrapped (entries past a fixed grid's last node are zero
-    /// in `K_N`'s storage, so the wrap adds nothing there): the first and last two rows.
-    fn wrapped_row(&self, i: usize) -> f64 {
-        let n = self.z.len() as isize;
-        let w = |j: isize| j.rem_euclid(n) as usize;
-        let (ii, z, ko) = (i as isize, self.z, self.ko);
-        self.kd[i] * z[i]
-            + ko[i][0] * z[w(ii + 1)]
-            + ko[i][1] * z[w(ii + 2)]
-            + ko[w(ii - 1)][0] * z[w(ii - 1)]
-            + ko[w(ii - 2)][1] * z[w(ii - 2)]
-    }
-}
-
-/// One fused pass over the nodes: `y = K_N z`, the generalised Rayleigh quotient
-/// `ρ = zᵀy / Σ m_i z_i²` (active nodes), the power step `next_i = y_i/(m_i ρ_prev)` (0 at
-/// inactive nodes; the scaling only keeps the magnitude near 1), and whether some active
-/// `K(i,i)/m_i` exceeds `bound`. `None` when the pass cannot be trusted (sizes, under 4
-/// nodes, a node that became inactive under a non-zero `z_i`, a non-finite or non-positive
-/// value) — the caller then anchors, whose full validation reports errors.
-///
-/// The power step `z ← M⁻¹K_N z` is the power iteration on `C` in the variable `z = M^{1/2}u`
-/// (`C u = M^{1/2} K_N z`); for a positive semi-definite `C` the Rayleigh quotients of power
-/// iterates never decrease, so the step can only improve the tracked mode between anchors.
-///
-/// One loop over the interior: a two-pass vectorised variant measured slower on the
-/// 10⁵-particle bench (352 µs against 221 µs), though faster with the arrays in cache.
-fn power_pass(
-    k: &NodalStiffness,
-    mass: &[f64],
-    active: &[bool],
-    z: &[f64],
-    next: &mut Vec<f64>,
-    rho_prev: f64,
-    bound: f64,
-) -> Option<Pass> {
-    let n = z.len();
-    if k.diag.len() != n || k.off.len() != n || mass.len() != n || active.len() != n || n < 4 {
-        return None;
-    }
-    // Every entry is written below, so the buffer is only sized, not cleared.
-    next.resize(n, 0.0);
-    let mut pass = PowerPass {
-        kd: &k.diag[..n],
-        ko: &k.off[..n],
-        mass: &mass[..n],
-        active: &active[..n],
-        z: &z[..n],
-        inv_rho: if rho_prev > 0.0 { 1.0 / rho_prev } else { 1.0 },
-        bound,
-        num: 0.0,
-        den: 0.0,
-        min_mass: f64::INFINITY,
-        above: false,
-        stale: false,
-    };
-    let next = &mut next[..n];
-    for i in [0, 1] {
-        let y = pass.wrapped_row(i);
-        pass.node(i, y, &mut next[i]);
-    }
-    let (kd, ko, zz) = (pass.kd, pass.ko, pass.z);
-    for i in 2..n - 2 {
-        let y = kd[i] * zz[i]
-            + ko[i][0] * zz[i + 1]
-            + ko[i][1] * zz[i + 2]
-            + ko[i - 1][0] * zz[i - 1]
-            + ko[i - 2][1] * zz[i - 2];
-        pass.node(i, y, &mut next[i]);
-    }
-    for i in [n - 2, n - 1] {
-        let y = pass.wrapped_row(i);
-        pass.node(i, y, &mut next[i]);
-    }
-    let rayleigh = pass.num / pass.den;
-    let valid = !pass.stale && rayleigh.is_finite() && rayleigh >= 0.0 && pass.min_mass > 0.0;
-    valid.then_some(Pass {
-        rayleigh,
-        diagonal_above: pass.above,
-    })
 }
 
 impl Default for CertifiedTracker {
@@ -408,10 +282,29 @@ impl CertifiedTracker {
                 std::mem::swap(&mut anchor.z, &mut self.next);
             }
         }
+        // The common anchor: the served quotient certifies at once. With the stepper's K_N
+        // the test runs on the pencil `μ diag(m) − K_N` ([`below_shift_pencil`]), so `C` is
+        // only built when it fails (its validation then reports bad values as errors).
+        let mut pretested = None;
+        if let (false, Some(rho), Some(k)) = (built, hint, view.nodal_stiffness) {
+            let mu = (1.0 + margin) * rho;
+            if rho > 0.0 {
+                let periodic = matches!(view.grid.boundary, crate::Boundary::Periodic);
+                pretested = below_shift_pencil(k, view.node_mass, view.node_active, periodic, mu);
+                if pretested == Some(true) {
+                    let scale = Scale {
+                        n_nodes: view.node_mass.len(),
+                        h: view.grid.h,
+                        c2_ref: k.c2_ref,
+                    };
+                    return Ok(self.anchored(scale, rho, mu, 0, 1));
+                }
+            }
+        }
         if !built {
             op.rebuild(view)?;
         }
-        self.anchor_at(op, hint)
+        self.anchor_at(op, hint, pretested)
     }
 
     /// A new anchor on `op` (module docs): a certified bracket `lo ≤ λmax(C) < hi`, narrowed
@@ -434,15 +327,19 @@ impl CertifiedTracker {
     /// 10⁵-particle bar the top of the spectrum is a cluster of nearly equal eigenvalues, a
     /// converged Lanczos vector is a localised member of it whose quotient fell by 1 % in the
     /// next step, and every step then re-anchored.)
+    ///
+    /// `pretested` is step 1's outcome when the caller already ran it on the pencil (a
+    /// factorisation counted here).
     fn anchor_at(
         &mut self,
         op: &NodalOperator,
         hint: Option<f64>,
+        pretested: Option<bool>,
     ) -> Result<CertifiedEstimate, StabilityError> {
         let (diag, off) = op.bands();
         let periodic = op.is_periodic();
         let margin = self.config.margin;
-        let mut factorisations = 0;
+        let mut factorisations = usize::from(pretested.is_some());
         let test = |mu: f64, count: &mut usize| {
             *count += 1;
             below_shift(diag, off, periodic, mu)
@@ -463,7 +360,7 @@ impl CertifiedTracker {
         if let Some(rho) = hint.filter(|&r| r >= lo && self.anchor.is_some()) {
             let mu = shift(rho, 1.0 + margin);
             lo = lo.max(rho);
-            if test(mu, &mut factorisations) {
+            if pretested.unwrap_or_else(|| test(mu, &mut factorisations)) {
                 hi = Some(mu);
                 vector_ritz = Some(rho);
             } else {
@@ -552,8 +449,29 @@ impl CertifiedTracker {
                 value: hi,
             });
         }
-        let upper = hi * (1.0 + ROUNDING);
         let rho = vector_ritz.unwrap_or(lo);
+        tracing::debug!(rayleigh = rho, lower = lo, "lambda_max bracket narrowed");
+        let scale = Scale {
+            n_nodes: diag.len(),
+            h: op.h(),
+            c2_ref: op.c2_ref(),
+        };
+        Ok(self.anchored(scale, rho, hi, applications, factorisations))
+    }
+
+    /// Records the anchor of the mode with quotient `rho` certified below `hi` (the rounding
+    /// slack added here) and returns its estimate.
+    fn anchored(
+        &mut self,
+        scale: Scale,
+        rho: f64,
+        hi: f64,
+        applications: usize,
+        factorisations: usize,
+    ) -> CertifiedEstimate {
+        let Scale { n_nodes, h, c2_ref } = scale;
+        let upper = hi * (1.0 + rounding_slack(n_nodes));
+        let margin = self.config.margin;
         let anchor = self.anchor.get_or_insert_with(Anchor::default);
         anchor.rayleigh = rho;
         anchor.last_rayleigh = rho;
@@ -561,18 +479,17 @@ impl CertifiedTracker {
         anchor.ratio = if rho > 0.0 { upper / rho } else { 1.0 + margin };
         tracing::debug!(
             rayleigh = rho,
-            lower = lo,
             upper,
             applications,
             factorisations,
             "lambda_max anchored"
         );
-        Ok(CertifiedEstimate {
-            estimate: estimate(op.h(), op.c2_ref(), upper, applications),
+        CertifiedEstimate {
+            estimate: estimate(h, c2_ref, upper, applications),
             rayleigh: rho,
             certified: true,
             factorisations,
-        })
+        }
     }
 
     /// The tracked mode `z = M^{1/2} u` from the Lanczos tracker's vector `u`.
@@ -587,6 +504,15 @@ impl CertifiedTracker {
                 .map(|(u, s)| u * s),
         );
     }
+}
+
+/// What turns a certified `λmax(C)` into an estimate: the node count (for the rounding
+/// slack), the grid spacing and the reference wave speed².
+#[derive(Clone, Copy)]
+struct Scale {
+    n_nodes: usize,
+    h: f64,
+    c2_ref: f64,
 }
 
 /// The [`LambdaEstimate`] of the value `lambda` on a grid of spacing `h` with reference wave

@@ -71,6 +71,7 @@ pub mod lambda_max;
 pub mod limit;
 pub mod nodal;
 pub mod operator;
+mod power_pass;
 pub mod sound_speed;
 
 pub use certified::{CertifiedConfig, CertifiedEstimate, CertifiedTracker};

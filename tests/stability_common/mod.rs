@@ -2,7 +2,8 @@
 //! nodal masses by eq 7, independent of any solver.
 #![allow(dead_code)]
 
-use mpm_dt::{Boundary, Grid, Shape, View, WeightKind, Weights};
+use mpm_dt::stability::NodalOperator;
+use mpm_dt::{Boundary, Grid, NodalStiffness, Shape, View, WeightKind, Weights};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -23,6 +24,8 @@ pub struct Fixture {
     pub node_velocity: Vec<f64>,
     pub node_acceleration: Vec<f64>,
     pub node_active: Vec<bool>,
+    /// `K_N` handed to the view as a stepper would (`None`: the library assembles it).
+    pub stiffness: Option<NodalStiffness>,
 }
 
 impl Fixture {
@@ -47,6 +50,7 @@ impl Fixture {
             node_velocity: Vec::new(),
             node_acceleration: Vec::new(),
             node_active: Vec::new(),
+            stiffness: None,
         };
         fx.refresh();
         fx
@@ -66,6 +70,18 @@ impl Fixture {
             .collect();
         self.node_velocity = vec![0.0; nn];
         self.node_acceleration = vec![0.0; nn];
+        if self.stiffness.is_some() {
+            self.provide_stiffness();
+        }
+    }
+
+    /// From now on the view carries `K_N` (assembled from the weights, as
+    /// [`NodalOperator`] does for a view without it), so the trackers take the path they
+    /// take under a stepper that accumulates it.
+    pub fn provide_stiffness(&mut self) {
+        self.stiffness = None;
+        let op = NodalOperator::new(&self.view()).expect("valid fixture");
+        self.stiffness = Some(op.stiffness().clone());
     }
 
     pub fn view(&self) -> View<'_> {
@@ -86,7 +102,7 @@ impl Fixture {
             node_velocity: &self.node_velocity,
             node_acceleration: &self.node_acceleration,
             node_active: &self.node_active,
-            nodal_stiffness: None,
+            nodal_stiffness: self.stiffness.as_ref(),
         }
     }
 }
