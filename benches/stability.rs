@@ -32,6 +32,7 @@
 #![allow(missing_docs)]
 
 use criterion::{criterion_group, criterion_main, Criterion};
+use mpm_dt::controller::{Controller, ControllerConfig};
 use mpm_dt::mpm::{Material, ReferenceStepper};
 use mpm_dt::problems::StandingWave;
 use mpm_dt::stability::certificate::below_shift_pencil;
@@ -40,7 +41,11 @@ use mpm_dt::stability::{
     Stability, StabilityConfig, SymmetricOperator, Tracking,
 };
 use mpm_dt::{Boundary, Grid, Shape, StepLimit, Stepper};
+use mpm_dt::{Judgement, LimitError, Proposal, RejectCause, View};
+use std::cell::RefCell;
 use std::hint::black_box;
+use std::rc::Rc;
+use std::time::{Duration, Instant};
 
 fn bench(c: &mut Criterion) {
     let cells = 50_000;
@@ -234,6 +239,117 @@ fn bench(c: &mut Criterion) {
         });
     }
     g.finish();
+    controller_run(&s);
+}
+
+/// `Stability` as the controller runs it, timed: its `propose` per step.
+struct Timed {
+    inner: Stability,
+    /// (wall time, factorisations, Lanczos applications) of each proposal.
+    log: Rc<RefCell<Vec<(Duration, f64, f64)>>>,
+}
+
+impl StepLimit for Timed {
+    fn name(&self) -> &str {
+        self.inner.name()
+    }
+    fn propose(&mut self, state: &View<'_>) -> Result<Proposal, LimitError> {
+        let start = Instant::now();
+        let p = self.inner.propose(state);
+        let elapsed = start.elapsed();
+        if let Ok(p) = &p {
+            let metric = |k: &str| p.metrics.get(k).copied().unwrap_or(0.0);
+            self.log.borrow_mut().push((
+                elapsed,
+                metric("lambda_factorisations"),
+                metric("lanczos_applications"),
+            ));
+        }
+        p
+    }
+    fn judge(
+        &mut self,
+        before: &View<'_>,
+        after: &View<'_>,
+        dt: f64,
+    ) -> Result<Judgement, LimitError> {
+        self.inner.judge(before, after, dt)
+    }
+    fn accepted(&mut self, before: &View<'_>, after: &View<'_>, dt: f64) {
+        self.inner.accepted(before, after, dt)
+    }
+    fn reads_nodal_stiffness(&self) -> bool {
+        self.inner.reads_nodal_stiffness()
+    }
+    fn rejected(&mut self, dt: f64, cause: RejectCause) {
+        self.inner.rejected(dt, cause)
+    }
+    fn scale_safety(&mut self, factor: f64) {
+        self.inner.scale_safety(factor)
+    }
+}
+
+/// The per-step cost of the default `Stability` limit in a real run — 400 controlled steps
+/// of the 10⁵-particle standing wave, anchors and their fall-backs included — against the
+/// bare solver step timed in the same process, interleaved (a bare step, 10 controlled
+/// steps, …) so that both see the same machine load. Printed, not a criterion group: the
+/// quantity is a mean over an evolving run, which criterion's repeated closure cannot give.
+fn controller_run(start: &ReferenceStepper) {
+    let steps = 400;
+    let log = Rc::new(RefCell::new(Vec::with_capacity(steps)));
+    let timed = Timed {
+        inner: Stability::default(),
+        log: Rc::clone(&log),
+    };
+    let mut controlled = start.clone();
+    let mut controller =
+        Controller::with_default_limits(ControllerConfig::default(), vec![Box::new(timed)])
+            .expect("controller");
+    let mut bare = start.clone();
+    let dt = 0.5 * start.grid().h;
+    let mut bare_time = Duration::ZERO;
+    let mut bare_steps = 0;
+    for k in 0..steps {
+        if k % 10 == 0 {
+            let t = Instant::now();
+            bare.try_step(black_box(dt)).expect("stable step");
+            bare_time += t.elapsed();
+            bare.reject();
+            bare_steps += 1;
+        }
+        controller
+            .step(&mut controlled, f64::INFINITY)
+            .expect("controlled step");
+    }
+    let log = log.borrow();
+    // The first proposal is the cold start (a tight Lanczos from scratch): reported apart.
+    let (cold, run) = log.split_first().expect("proposals");
+    let bare_step = bare_time.as_secs_f64() / bare_steps as f64;
+    let mean = |xs: &[&(Duration, f64, f64)]| {
+        xs.iter().map(|x| x.0.as_secs_f64()).sum::<f64>() / xs.len().max(1) as f64
+    };
+    let served: Vec<_> = run.iter().filter(|x| x.1 == 0.0).collect();
+    let pencil: Vec<_> = run.iter().filter(|x| x.1 > 0.0 && x.2 == 0.0).collect();
+    let lanczos: Vec<_> = run.iter().filter(|x| x.2 > 0.0).collect();
+    let all: Vec<_> = run.iter().collect();
+    eprintln!(
+        "controller run, 10⁵ particles, {} proposals after the cold start ({:.1} ms): \
+         mean propose {:.0} µs = {:.3} of a bare solver step ({:.0} µs, {} timed); served \
+         {} × {:.0} µs; anchors on the pencil alone {} × {:.0} µs; anchors with Lanczos {} × \
+         {:.0} µs",
+        run.len(),
+        cold.0.as_secs_f64() * 1e3,
+        mean(&all) * 1e6,
+        mean(&all) / bare_step,
+        bare_step * 1e6,
+        bare_steps,
+        served.len(),
+        mean(&served) * 1e6,
+        pencil.len(),
+        mean(&pencil) * 1e6,
+        lanczos.len(),
+        mean(&lanczos) * 1e6,
+    );
 }
 
 criterion_group!(benches, bench);

@@ -4,7 +4,8 @@
 //! ```text
 //! every step (served):   ρ = zᵀ K_N z / zᵀ M z,  z ← M⁻¹ K_N z   (one pass: quotient, power step)
 //!                        λ̂ = r ρ                          (what dt_eq56 uses)
-//! anchor (re-certify):   LDLᵀ(μI − C) ≻ 0 with μ = (1 + margin) ρ   ⇒  λmax(C) < μ,  r = μ/ρ
+//! anchor (re-certify):   LDLᵀ(μ₁ diag(m) − K_N) ≻ 0 with μ₁ = r ρ (the served value)
+//!                        ⇒ λmax(C) < μ₁; bisect [ρ, μ₁] to the margin on the same pencil
 //!                        on failure: Lanczos (warm), certified brackets (see `anchor_at`)
 //! ```
 //!
@@ -17,13 +18,21 @@
 //! roots, no operator build, no eigenvalue iteration (measured: README "Stability").
 //!
 //! **Certification.** Every `certify_every` proposals, and whenever a served step looks
-//! suspicious, the tracker builds `C` and tests `μI − C ≻ 0` by one `LDLᵀ` pass
-//! ([`super::certificate`]). Success proves `λmax(C) < μ = (1 + margin) ρ`: the served value
-//! was an upper bound at that step. Failure means an eigenvalue lies above the tracked one (a
-//! level crossing, a mode that `z` does not see): the tracker then runs a warm Lanczos update
-//! (with its diagonal guard), certifies `(1 + margin) θ`, and if that fails too a cold, tight
-//! Lanczos and finally a bisection between the failed shift and the rigorous Gershgorin
-//! bound. Suspicious served steps, which trigger an anchor at once:
+//! suspicious, the tracker tests `μI − C ≻ 0` by one `LDLᵀ` pass ([`super::certificate`]);
+//! with the stepper's `K_N` it tests the congruent pencil `μ diag(m) − K_N` instead, which
+//! needs no operator build ([`below_shift_pencil`]). A scheduled anchor (`due`, or the rise
+//! trigger below) first re-certifies **the value being served**, `μ₁ = r ρ`: success proves
+//! that value was an upper bound, and the bracket `[ρ, μ₁]` is then bisected on the same
+//! operator, starting at `(1 + margin) ρ`, until `hi ≤ (1 + margin) lo` — usually one or
+//! three more factorisations, no Lanczos. Failure means an eigenvalue lies above the served
+//! value (a level crossing, a mode that `z` does not see): the tracker then builds `C`, runs
+//! a warm Lanczos update (with its diagonal guard), certifies `(1 + margin) θ`, and if that
+//! fails too a cold, tight Lanczos and finally a bisection between the failed shift and the
+//! rigorous Gershgorin bound; an anchor triggered by a dropped quotient or a diagonal entry
+//! (below) takes that path at once, since there the served value is in doubt. How often
+//! each path runs in a 10⁵-particle controller run: README "Stability".
+//!
+//! Suspicious served steps, which trigger an anchor at once:
 //!
 //! * `ρ` dropped by more than `drop_tol` relative since the anchor — `z` may be going stale
 //!   (a drop of `ρ` is the only symptom a stale `z` can show, since `ρ ≤ λmax` always);
@@ -238,6 +247,8 @@ impl CertifiedTracker {
     ) -> Result<CertifiedEstimate, StabilityError> {
         let margin = self.config.margin;
         let mut hint = None;
+        // Whether the anchor only re-certifies the served value (module docs, "Anchors").
+        let mut recertify = None;
         // Without the stepper's K_N the operator is assembled now (and then already built).
         let built = view.nodal_stiffness.is_none();
         if built {
@@ -278,33 +289,62 @@ impl CertifiedTracker {
                 }
                 tracing::trace!(due, dropped, above, rose, "lambda_max: anchoring");
                 hint = Some(p.rayleigh);
+                // A stale mode (its quotient dropped) or a diagonal entry above the served
+                // value: the served value itself is in doubt, so the full anchor runs.
+                recertify = (!(dropped || above)).then_some(anchor.ratio);
                 // Keep the power step: it can only improve the mode the anchor certifies.
                 std::mem::swap(&mut anchor.z, &mut self.next);
             }
         }
-        // The common anchor: the served quotient certifies at once. With the stepper's K_N
-        // the test runs on the pencil `μ diag(m) − K_N` ([`below_shift_pencil`]), so `C` is
-        // only built when it fails (its validation then reports bad values as errors).
-        let mut pretested = None;
-        if let (false, Some(rho), Some(k)) = (built, hint, view.nodal_stiffness) {
-            let mu = (1.0 + margin) * rho;
-            if rho > 0.0 {
-                let periodic = matches!(view.grid.boundary, crate::Boundary::Periodic);
-                pretested = below_shift_pencil(k, view.node_mass, view.node_active, periodic, mu);
-                if pretested == Some(true) {
+        // The common anchor, on the operator at hand — the pencil `μ diag(m) − K_N` of the
+        // stepper's K_N ([`below_shift_pencil`], no operator build) or the assembled `C`.
+        let mut proven_above = None;
+        let mut factorisations = 0;
+        if let Some(rho) = hint.filter(|&r| r > 0.0) {
+            let periodic = matches!(view.grid.boundary, crate::Boundary::Periodic);
+            let stiffness = view.nodal_stiffness;
+            let test = |mu: f64| match stiffness {
+                Some(k) => below_shift_pencil(k, view.node_mass, view.node_active, periodic, mu),
+                None => {
+                    let (diag, off) = op.bands();
+                    Some(below_shift(diag, off, op.is_periodic(), mu))
+                }
+            };
+            let tight = (1.0 + margin) * rho;
+            let first = recertify.map_or(tight, |ratio| (ratio * rho).max(tight));
+            match test(first) {
+                Some(true) => {
+                    // Certified below `first`; ρ ≤ λmax. A loose bracket is bisected on the
+                    // same operator down to the margin, starting at the tight shift.
+                    factorisations += 1;
+                    let (mut lo, mut hi, mut mu) = (rho, first, tight);
+                    while hi > (1.0 + margin) * lo && factorisations < 64 {
+                        match test(mu) {
+                            Some(true) => hi = mu,
+                            Some(false) => lo = mu,
+                            None => break,
+                        }
+                        factorisations += 1;
+                        mu = 0.5 * (lo + hi);
+                    }
                     let scale = Scale {
                         n_nodes: view.node_mass.len(),
                         h: view.grid.h,
-                        c2_ref: k.c2_ref,
+                        c2_ref: stiffness.unwrap_or(op.stiffness()).c2_ref,
                     };
-                    return Ok(self.anchored(scale, rho, mu, 0, 1));
+                    return Ok(self.anchored(scale, rho, hi, 0, factorisations));
                 }
+                Some(false) => {
+                    factorisations += 1;
+                    proven_above = Some(first);
+                }
+                None => {}
             }
         }
         if !built {
             op.rebuild(view)?;
         }
-        self.anchor_at(op, hint, pretested)
+        self.anchor_at(op, hint, proven_above, factorisations)
     }
 
     /// A new anchor on `op` (module docs): a certified bracket `lo ≤ λmax(C) < hi`, narrowed
@@ -328,18 +368,19 @@ impl CertifiedTracker {
     /// converged Lanczos vector is a localised member of it whose quotient fell by 1 % in the
     /// next step, and every step then re-anchored.)
     ///
-    /// `pretested` is step 1's outcome when the caller already ran it on the pencil (a
-    /// factorisation counted here).
+    /// `proven_above` is a shift whose certificate the caller already saw fail (so step 1 is
+    /// skipped: `λmax ≥` it), and `factorisations` the caller's count.
     fn anchor_at(
         &mut self,
         op: &NodalOperator,
         hint: Option<f64>,
-        pretested: Option<bool>,
+        proven_above: Option<f64>,
+        factorisations: usize,
     ) -> Result<CertifiedEstimate, StabilityError> {
         let (diag, off) = op.bands();
         let periodic = op.is_periodic();
         let margin = self.config.margin;
-        let mut factorisations = usize::from(pretested.is_some());
+        let mut factorisations = factorisations;
         let test = |mu: f64, count: &mut usize| {
             *count += 1;
             below_shift(diag, off, periodic, mu)
@@ -357,10 +398,12 @@ impl CertifiedTracker {
         let mut applications = 0;
         // 1. The served quotient (its z is kept when it certifies).
         let mut vector_ritz = None;
-        if let Some(rho) = hint.filter(|&r| r >= lo && self.anchor.is_some()) {
+        if let Some(known) = proven_above {
+            lo = lo.max(known);
+        } else if let Some(rho) = hint.filter(|&r| r >= lo && self.anchor.is_some()) {
             let mu = shift(rho, 1.0 + margin);
             lo = lo.max(rho);
-            if pretested.unwrap_or_else(|| test(mu, &mut factorisations)) {
+            if test(mu, &mut factorisations) {
                 hi = Some(mu);
                 vector_ritz = Some(rho);
             } else {
