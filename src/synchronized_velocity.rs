@@ -182,6 +182,11 @@ mod tests {
     use crate::view_weights::ViewWeights;
     use crate::weights::Weights;
 
+    /// Bit patterns, for exact comparison.
+    fn bits(u: &[f64]) -> Vec<u64> {
+        u.iter().map(|x| x.to_bits()).collect()
+    }
+
     /// Two particles on three nodes, every number chosen by hand.
     fn hand_weights() -> Weights {
         let mut w = Weights::new(3, 2);
@@ -225,11 +230,14 @@ mod tests {
         let (v, a, zeros) = ([1.0, -2.0], [4.0, 8.0, -16.0], [0.0; 2]);
         let view = hand_view(&grid, &w, &v, &a, &zeros);
         // a_0 = 0.25·4 + 0.75·8 = 7, a_1 = 0.5·8 − 0.5·16 = −4 (all exact in binary).
-        assert_eq!(view.synchronized_velocity(0.5).unwrap(), [4.5, -4.0]);
-        assert_eq!(view.synchronized_velocity(0.0).unwrap(), v);
+        assert_eq!(
+            bits(&view.synchronized_velocity(0.5).unwrap()),
+            bits(&[4.5, -4.0])
+        );
+        assert_eq!(bits(&view.synchronized_velocity(0.0).unwrap()), bits(&v));
         let mut out = [f64::NAN; 2];
         view.synchronized_velocity_into(0.25, &mut out).unwrap();
-        assert_eq!(out, [2.75, -3.0]);
+        assert_eq!(bits(&out), bits(&[2.75, -3.0]));
     }
 
     #[test]
@@ -253,7 +261,7 @@ mod tests {
                 got: 1
             })
         );
-        assert_eq!(short, [7.0], "untouched on error");
+        assert_eq!(bits(&short), bits(&[7.0]), "untouched on error");
         let a2 = [4.0, 8.0];
         let bad_nodes = hand_view(&grid, &w, &v, &a2, &zeros);
         assert_eq!(

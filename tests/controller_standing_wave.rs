@@ -244,7 +244,7 @@ fn check(jitter: bool, amplitude: f64, expect: Expect) {
     let lag_ctrl = 0.5 * dts[STEPS - 2];
     // t_end = ∞: no landing step, so ℓ is half the last accepted step.
     let half_ctrl = half_ctrl.expect("regular steps");
-    assert_eq!(half_ctrl, 0.5 * dts[STEPS - 1]);
+    assert_eq!(half_ctrl.to_bits(), (0.5 * dts[STEPS - 1]).to_bits());
     let sync_ctrl = sync_error(&s, &wave, &x, half_ctrl);
 
     // Fixed steps of a quarter of the critical step to the same final time.
