@@ -21,6 +21,9 @@
 //! * [`estimators`] — the spatial error estimators of Section 4 (eqs 31–44).
 //! * [`stability`] — the sound-speed limit (eq 49), the eq 56 amplification operator and
 //!   its tracked λmax, the eq 58 bound, and exact critical steps for verification.
+//! * [`synchronized_velocity`] — the particle velocity at the state's time, second order in
+//!   dt: the USL step's velocity lags half a step, a closing half kick
+//!   ([`View::synchronized_velocity`]) removes the lag.
 //! * [`controller`] — the adaptive controller combining the limits
 //!   ([`controller::Controller::standard`] builds the paper's three plus a growth monitor).
 //!
@@ -55,6 +58,7 @@ pub mod scenario;
 pub mod shape;
 pub mod stability;
 pub mod stepper;
+pub mod synchronized_velocity;
 pub mod view_weights;
 pub mod weights;
 
@@ -63,5 +67,6 @@ pub use limit::{Judgement, LimitError, Metrics, Proposal, RejectCause, StepLimit
 pub use nodal_stiffness::NodalStiffness;
 pub use shape::Shape;
 pub use stepper::{StepError, Stepper, View};
+pub use synchronized_velocity::{closing_half_step, SyncVelocityError};
 pub use view_weights::{ViewWeights, WeightsCache};
 pub use weights::{WeightKind, Weights};
