@@ -68,8 +68,12 @@ pub fn below_shift(diag: &[f64], off: &[[f64; 2]], periodic: bool, mu: f64) -> b
 /// `λmax(C) < μ (1 + 15u)` inside the band, and the border adds what it adds to
 /// [`below_shift`]: [`rounding_slack`] covers both.
 ///
+/// Forming `A_ii = μ m_i − K_ii` rounds twice, `|ΔA_ii| ≤ 2u (μ m_i + K_ii) ≤ 4u μ m_i`
+/// (`K_ii < μ m_i` when `A` is positive definite): `4u` more, also inside the slack.
+///
 /// `None` when the inputs do not fit (sizes; under seven nodes, where [`below_shift`] on the
-/// assembled `C` runs instead); `Some(false)` for non-finite or non-positive values.
+/// assembled `C` runs instead); `Some(false)` for non-finite or non-positive values. Several
+/// shifts on one state: [`Pencil`] prepares the bands once.
 pub fn below_shift_pencil(
     k: &crate::NodalStiffness,
     mass: &[f64],
@@ -77,38 +81,285 @@ pub fn below_shift_pencil(
     periodic: bool,
     mu: f64,
 ) -> Option<bool> {
-    let n = k.diag.len();
-    if n < 7 || k.off.len() != n || mass.len() != n || active.len() != n {
-        return None;
+    let mut pencil = Pencil::default();
+    pencil
+        .prepare(k, mass, active, periodic)
+        .then(|| pencil.below_shift(mu))
+}
+
+/// The bands of the pencil `μ diag(m) − K_N` of [`below_shift_pencil`] with the node activity
+/// folded in, prepared once per state for any number of shifts: `A_ii = μ m'_i − k'_i` with
+/// `(m'_i, k'_i) = (m_i, K_ii)` at active nodes and `(0, −1)` at inactive ones (so the pivot
+/// there is exactly 1), couplings zero unless both nodes are active. One pass over the nodes;
+/// each [`Self::below_shift`] is then the same `LDLᵀ` pass as [`below_shift`] on `C`.
+#[derive(Clone, Debug, Default)]
+pub struct Pencil {
+    mass: Vec<f64>,
+    diag: Vec<f64>,
+    off: Vec<[f64; 2]>,
+    periodic: bool,
+}
+
+impl Pencil {
+    /// Prepares the bands of one state; `false` (and nothing to test) when the sizes do not
+    /// fit or there are under seven nodes.
+    pub fn prepare(
+        &mut self,
+        k: &crate::NodalStiffness,
+        mass: &[f64],
+        active: &[bool],
+        periodic: bool,
+    ) -> bool {
+        let n = k.diag.len();
+        self.mass.clear();
+        self.diag.clear();
+        self.off.clear();
+        if n < 7 || k.off.len() != n || mass.len() != n || active.len() != n {
+            return false;
+        }
+        self.periodic = periodic;
+        let select = |a: bool, x: f64, otherwise: f64| if a { x } else { otherwise };
+        self.mass
+            .extend(mass.iter().zip(active).map(|(&m, &a)| select(a, m, 0.0)));
+        self.diag
+            .extend(k.diag.iter().zip(active).map(|(&d, &a)| select(a, d, -1.0)));
+        // Node i couples to i + 1 and i + 2 (wrapped; past a fixed grid's end the storage
+        // holds zeros anyway).
+        let at = |w: usize| active[if w >= n { w - n } else { w }];
+        self.off.extend(k.off.iter().enumerate().map(|(i, o)| {
+            let a = active[i];
+            [
+                select(a && at(i + 1), o[0], 0.0),
+                select(a && at(i + 2), o[1], 0.0),
+            ]
+        }));
+        true
     }
-    if !mu.is_finite() {
-        return Some(false);
+
+    /// Whether every eigenvalue of `C` of the prepared state is strictly below `mu` (see
+    /// [`below_shift_pencil`]); `false` when nothing is prepared or for non-finite values.
+    pub fn below_shift(&self, mu: f64) -> bool {
+        let n = self.diag.len();
+        if n < 7 || !mu.is_finite() {
+            return false;
+        }
+        let (m, d, o) = (&self.mass[..n], &self.diag[..n], &self.off[..n]);
+        positive_definite(n, self.periodic, |k| mu * m[k] - d[k], |k, j| o[k][j])
     }
-    let (kd, ko) = (&k.diag, &k.off);
-    // An active node's neighbour j + 1 places on: wrapped (periodic), or past the end where
-    // the storage holds zeros anyway (fixed).
-    let coupled = |i: usize, j: usize| {
-        let w = i + j + 1;
-        active[i] && active[if w >= n { w - n } else { w }]
-    };
-    Some(positive_definite(
-        n,
-        periodic,
-        |i| {
-            if active[i] {
-                mu * mass[i] - kd[i]
-            } else {
-                1.0
-            }
-        },
-        |i, j| if coupled(i, j) { ko[i][j] } else { 0.0 },
-    ))
 }
 
 /// The `LDLᵀ` positivity test of the symmetric pentadiagonal `A` with `A(k, k) = a(k)` and
-/// `A(k, k+j+1) = −o(k, j)` (`j = 0, 1`, indices wrapped on periodic grids; `n ≥ 7`).
+/// `A(k, k+j+1) = −o(k, j)` (`j = 0, 1`, indices wrapped on periodic grids; `n ≥ 7`): from
+/// [`SPLIT_MIN`] nodes on as two chains eliminated side by side ([`positive_definite_split`]),
+/// below that as one ([`positive_definite_chain`]).
 #[inline(always)]
 fn positive_definite(
+    n: usize,
+    periodic: bool,
+    a: impl Fn(usize) -> f64,
+    o: impl Fn(usize, usize) -> f64,
+) -> bool {
+    if n >= SPLIT_MIN {
+        positive_definite_split(n, periodic, a, o)
+    } else {
+        positive_definite_chain(n, periodic, a, o)
+    }
+}
+
+/// Nodes from which [`positive_definite`] splits the elimination into two chains.
+const SPLIT_MIN: usize = 16;
+
+/// One chain of an `LDLᵀ` elimination in progress: the last two reciprocal pivots and
+/// multiplier, and the forward solve `y` of the border columns (`[B1₀, B1₁, B2₀, B2₁]`) with
+/// the Schur complement's accumulated `Σ y yᵀ/d` (upper triangle of 4 × 4, row by row).
+#[derive(Clone, Copy)]
+struct Chain {
+    r1: f64,
+    r2: f64,
+    l1: f64,
+    y1: [f64; 4],
+    y2: [f64; 4],
+    s: [f64; 10],
+}
+
+impl Chain {
+    const START: Chain = Chain {
+        r1: 0.0,
+        r2: 0.0,
+        l1: 0.0,
+        y1: [0.0; 4],
+        y2: [0.0; 4],
+        s: [0.0; 10],
+    };
+
+    /// Eliminates the next node: its diagonal `a`, its couplings `e`, `f` to the previous two
+    /// nodes of the chain, and its border couplings `b`; `BORDER` = how many of the border
+    /// columns can be non-zero from here on (2: `B1` only, 4: both). `false` on a
+    /// non-positive or non-finite pivot.
+    #[inline(always)]
+    fn step<const BORDER: usize>(&mut self, a: f64, e: f64, f: f64, b: [f64; 4]) -> bool {
+        let g = e - f * self.l1;
+        let l = g * self.r1;
+        let d = a - g * l - f * f * self.r2;
+        if !(d > 0.0 && d.is_finite()) {
+            return false;
+        }
+        let r = 1.0 / d;
+        let lf = f * self.r2;
+        let mut y = [0.0; 4];
+        for c in 0..BORDER {
+            y[c] = b[c] - l * self.y1[c] - lf * self.y2[c];
+        }
+        let mut idx = 0;
+        for i in 0..BORDER {
+            for j in i..4 {
+                if j < BORDER {
+                    self.s[idx] += y[i] * y[j] * r;
+                }
+                idx += 1;
+            }
+        }
+        self.y2 = self.y1;
+        self.y1 = y;
+        self.r2 = self.r1;
+        self.r1 = r;
+        self.l1 = l;
+        true
+    }
+}
+
+/// [`positive_definite`] as two chains. With the border `B2 = {h, h+1}` in the middle (and,
+/// periodic, `B1 = {n−2, n−1}` as in [`positive_definite_chain`]), the nodes fall into chain
+/// `P = 0 … h−1` and chain `R = h+2 … n'−1` (`n' = n − 2` periodic, `n` fixed), which do not
+/// couple to each other (the half-bandwidth is 2). `P` is eliminated forward and `R`
+/// backward, in one loop, so the two chains of dependent divisions overlap: each chain meets
+/// `B1` at its first two nodes (periodic) and `B2` only at its last two, so the forward solve
+/// carries two border columns along the chain and the other two only at its end. The test
+/// is then the positivity of the Schur complement `S = Q − Σ y yᵀ/d` of the border (4 × 4,
+/// or 2 × 2 on a fixed grid) — Haynsworth: `inertia(A) = inertia(P ⊕ R) + inertia(S)`,
+/// and a failed pivot in a chain is a leading principal submatrix (of a symmetric
+/// permutation of `A`) that is not positive definite. The same matrix, reordered: the
+/// rounding analysis of the module docs holds with the border's sums over both chains.
+#[inline(always)]
+fn positive_definite_split(
+    n: usize,
+    periodic: bool,
+    a: impl Fn(usize) -> f64,
+    o: impl Fn(usize, usize) -> f64,
+) -> bool {
+    let end = if periodic { n - 2 } else { n };
+    let h = end / 2 - 1;
+    let border = [n - 2, n - 1, h, h + 1];
+    // A(i, j) for two distinct nodes (zero unless within two places, wrapped on periodic
+    // grids; a fixed grid's storage holds zeros past its end).
+    let coupling = |i: usize, j: usize| -> f64 {
+        let (lo, hi) = if i < j { (i, j) } else { (j, i) };
+        let d = hi - lo;
+        if d <= 2 {
+            -o(lo, d - 1)
+        } else if periodic && n - d <= 2 {
+            -o(hi, n - d - 1)
+        } else {
+            0.0
+        }
+    };
+    let border_of = |k: usize| -> [f64; 4] {
+        let mut b = [0.0; 4];
+        for (c, &q) in border.iter().enumerate() {
+            if periodic || c >= 2 {
+                b[c] = coupling(k, q);
+            }
+        }
+        b
+    };
+    // Chain P: nodes 0 … h−1 in order; chain R: nodes end−1 … h+2, i.e. node end−1−k.
+    let len_p = h;
+    let len_r = end - (h + 2);
+    let node_r = |k: usize| end - 1 - k;
+    let (mut p, mut r) = (Chain::START, Chain::START);
+    // Position k of a chain: couplings to its previous two nodes; border columns at its
+    // first two nodes (B1) and last two (B2).
+    // Position k of a chain at node i with couplings e, f to its previous two nodes; border
+    // columns at its first two nodes (B1) and its last two (B2). A macro rather than a
+    // closure so that the chain state stays in registers.
+    macro_rules! step {
+        ($c:expr, $k:expr, $len:expr, $i:expr, $e:expr, $f:expr) => {{
+            let (k, i) = ($k, $i);
+            let e = if k >= 1 { $e } else { 0.0 };
+            let f = if k >= 2 { $f } else { 0.0 };
+            if k < 2 {
+                $c.step::<2>(a(i), e, f, border_of(i))
+            } else if k + 2 >= $len {
+                $c.step::<4>(a(i), e, f, border_of(i))
+            } else {
+                $c.step::<2>(a(i), e, f, [0.0; 4])
+            }
+        }};
+    }
+    let common = len_p.min(len_r);
+    for k in 0..common {
+        let i = node_r(k);
+        let ok_p = step!(p, k, len_p, k, -o(k - 1, 0), -o(k - 2, 1));
+        let ok_r = step!(r, k, len_r, i, -o(i, 0), -o(i, 1));
+        if !(ok_p && ok_r) {
+            return false;
+        }
+    }
+    for k in common..len_p {
+        if !step!(p, k, len_p, k, -o(k - 1, 0), -o(k - 2, 1)) {
+            return false;
+        }
+    }
+    for k in common..len_r {
+        let i = node_r(k);
+        if !step!(r, k, len_r, i, -o(i, 0), -o(i, 1)) {
+            return false;
+        }
+    }
+    // The border's Schur complement, upper triangle row by row over [B1₀, B1₁, B2₀, B2₁]
+    // (on a fixed grid only B2: the 2 × 2 block of rows and columns 2, 3).
+    let mut q = [[0.0_f64; 4]; 4];
+    let mut idx = 0;
+    for i in 0..4 {
+        for j in i..4 {
+            let aij = if i == j {
+                a(border[i])
+            } else {
+                coupling(border[i], border[j])
+            };
+            let sij = aij - p.s[idx] - r.s[idx];
+            q[i][j] = sij;
+            q[j][i] = sij;
+            idx += 1;
+        }
+    }
+    let first = if periodic { 0 } else { 2 };
+    dense_positive_definite(&q, first)
+}
+
+/// Whether the symmetric block `q[first..4][first..4]` is positive definite (Cholesky by
+/// hand: every pivot positive and finite).
+fn dense_positive_definite(q: &[[f64; 4]; 4], first: usize) -> bool {
+    let mut l = [[0.0_f64; 4]; 4];
+    for i in first..4 {
+        for j in first..=i {
+            let sum = (first..j).fold(q[i][j], |sum, k| sum - l[i][k] * l[j][k]);
+            if i == j {
+                if !(sum > 0.0 && sum.is_finite()) {
+                    return false;
+                }
+                l[i][i] = sum.sqrt();
+            } else {
+                l[i][j] = sum / l[j][j];
+            }
+        }
+    }
+    true
+}
+
+/// [`positive_definite`] as one chain (the nodes in order, the periodic border last).
+#[inline(always)]
+fn positive_definite_chain(
     n: usize,
     periodic: bool,
     a: impl Fn(usize) -> f64,
@@ -341,6 +592,40 @@ mod tests {
             below_shift_pencil(&k, &[1.0; 9], &[true; 9], true, 2.0),
             Some(false)
         );
+    }
+
+    #[test]
+    fn two_chains_decide_as_one_chain() {
+        // Random pentadiagonal matrices, shifts around λmax and the smallest eigenvalue
+        // (where pivots fail early, late, or in the border): the split elimination agrees
+        // with the single chain, and with dense eigenvalues away from ties.
+        let mut seed = 23;
+        for n in [16, 17, 18, 19, 23, 31, 64] {
+            for periodic in [false, true] {
+                let diag: Vec<f64> = (0..n).map(|_| 1.0 + 3.0 * lcg(&mut seed)).collect();
+                let mut off: Vec<[f64; 2]> = (0..n)
+                    .map(|_| [lcg(&mut seed) - 0.5, 0.6 * (lcg(&mut seed) - 0.5)])
+                    .collect();
+                if !periodic {
+                    off[n - 2][1] = 0.0;
+                    off[n - 1] = [0.0; 2];
+                }
+                let eig = SymmetricEigen::new(band_to_dense(&diag, &off, periodic)).eigenvalues;
+                let lmax = eig.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+                let lmin = eig.iter().copied().fold(f64::INFINITY, f64::min);
+                for t in 0..=40 {
+                    let mu = lmin + (lmax - lmin) * (t as f64 / 36.0 - 0.05);
+                    let a = |k: usize| mu - diag[k];
+                    let o = |k: usize, j: usize| off[k][j];
+                    let split = positive_definite_split(n, periodic, a, o);
+                    let chain = positive_definite_chain(n, periodic, a, o);
+                    assert_eq!(split, chain, "n {n} periodic {periodic} μ {mu}");
+                    if (mu - lmax).abs() > 1e-9 * lmax.abs() {
+                        assert_eq!(split, mu > lmax, "n {n} periodic {periodic} μ {mu}");
+                    }
+                }
+            }
+        }
     }
 
     #[test]

@@ -20,7 +20,7 @@
 //! **Certification.** Every `certify_every` proposals, and whenever a served step looks
 //! suspicious, the tracker tests `μI − C ≻ 0` by one `LDLᵀ` pass ([`super::certificate`]);
 //! with the stepper's `K_N` it tests the congruent pencil `μ diag(m) − K_N` instead, which
-//! needs no operator build ([`below_shift_pencil`]). A scheduled anchor (`due`, or the rise
+//! needs no operator build ([`super::certificate::below_shift_pencil`], bands prepared once per anchor by [`Pencil`]). A scheduled anchor (`due`, or the rise
 //! trigger below) first re-certifies **the value being served**, `μ₁ = r ρ`: success proves
 //! that value was an upper bound, and the bracket `[ρ, μ₁]` is then bisected on the same
 //! operator, starting at `(1 + margin) ρ`, until `hi ≤ (1 + margin) lo` — usually one or
@@ -55,7 +55,7 @@
 //! cold restarts) gave no proof at any step; `certify_every = 1` gives one at every step, at about
 //! a fifth of a solver step each (the `LDLᵀ` pass is a chain of divisions).
 
-use super::certificate::{below_shift, below_shift_pencil, rounding_slack};
+use super::certificate::{below_shift, rounding_slack, Pencil};
 use super::error::StabilityError;
 use super::lambda_max::{LambdaEstimate, LambdaMaxTracker, LanczosConfig, SymmetricOperator};
 use super::nodal::NodalOperator;
@@ -171,6 +171,8 @@ pub struct CertifiedTracker {
     anchor: Option<Anchor>,
     /// Scratch for the power step (swapped with the anchor's `z`).
     next: Vec<f64>,
+    /// Scratch: the pencil bands of an anchor's state (from the stepper's `K_N`).
+    pencil: Pencil,
 }
 
 impl Default for CertifiedTracker {
@@ -181,6 +183,7 @@ impl Default for CertifiedTracker {
             tracker: Self::anchor_tracker(LanczosConfig::default()),
             anchor: None,
             next: Vec::new(),
+            pencil: Pencil::default(),
         }
     }
 }
@@ -206,6 +209,7 @@ impl CertifiedTracker {
             tracker: Self::anchor_tracker(lanczos),
             anchor: None,
             next: Vec::new(),
+            pencil: Pencil::default(),
         })
     }
 
@@ -303,9 +307,15 @@ impl CertifiedTracker {
         if let Some(rho) = hint.filter(|&r| r > 0.0) {
             let periodic = matches!(view.grid.boundary, crate::Boundary::Periodic);
             let stiffness = view.nodal_stiffness;
-            let test = |mu: f64| match stiffness {
-                Some(k) => below_shift_pencil(k, view.node_mass, view.node_active, periodic, mu),
-                None => {
+            let on_pencil = stiffness.is_some_and(|k| {
+                self.pencil
+                    .prepare(k, view.node_mass, view.node_active, periodic)
+            });
+            let pencil = &self.pencil;
+            let test = |mu: f64| match (stiffness, on_pencil) {
+                (Some(_), true) => Some(pencil.below_shift(mu)),
+                (Some(_), false) => None,
+                (None, _) => {
                     let (diag, off) = op.bands();
                     Some(below_shift(diag, off, op.is_periodic(), mu))
                 }
