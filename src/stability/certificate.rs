@@ -20,10 +20,16 @@
 //! per row, `‖ΔA_band‖₂ ≤ 5 γ_3 μ ≈ 15 u μ`. On a periodic grid the border's two columns of
 //! `L` are full (the fill of the forward solve): their `2m` entries with the chain of `m`
 //! nodes have 3-term inner products (`‖·‖₂ ≤ 2 √m γ_3 μ`), and the border's own `2 × 2`
-//! block sums over the whole chain (`γ_{m+2} μ` per entry). In all,
-//! `‖ΔA‖₂ ≤ (15 + 6√n + 2n + 4) u μ ≤ (20 + 3n) u μ` for `n` nodes, so a successful test
-//! proves `λmax(C) < μ (1 + (20 + 3n) u)`; [`rounding_slack`] adds twice that (and at least
-//! `10⁻¹²`) to every certified bound — `3·10⁻¹¹` relative at `5·10⁴` nodes.
+//! block sums over the whole chain (`γ_{m+2} μ` per entry). In all, for one chain of `n`
+//! nodes, `‖ΔA‖₂ ≤ (19 + 6√n + 2n) u μ`. The two-chain elimination used from 16 nodes on
+//! ([`positive_definite_split`]) adds the middle border's two columns (3-term inner products
+//! at the chains' ends) and its `4 × 4` block (sums over both chains): about `40 u μ` more,
+//! `(59 + 6√n + 2n) u μ`. Both are at most `2 (20 + 3n) u μ` (the first for every `n`, the
+//! second from `n = 16`: `4n − 6√n − 19 ≥ 0`), so a successful test proves
+//! `λmax(C) < μ (1 + 2 (20 + 3n) u)`; [`rounding_slack`] adds that (and at least `10⁻¹²`) to
+//! every certified bound — `3·10⁻¹¹` relative at `5·10⁴` nodes. A *failed* test proves
+//! `λmax ≥ μ` only up to the same rounding; the trackers use failures to steer a search,
+//! never as a bound they serve.
 
 use nalgebra::{Cholesky, DMatrix};
 
@@ -287,10 +293,12 @@ fn positive_definite_split(
             let (k, i) = ($k, $i);
             let e = if k >= 1 { $e } else { 0.0 };
             let f = if k >= 2 { $f } else { 0.0 };
-            if k < 2 {
-                $c.step::<2>(a(i), e, f, border_of(i))
-            } else if k + 2 >= $len {
+            // Within two of the chain's end first: in a short chain a node can be among
+            // the first two and the last two, and then needs all four columns.
+            if k + 2 >= $len {
                 $c.step::<4>(a(i), e, f, border_of(i))
+            } else if k < 2 {
+                $c.step::<2>(a(i), e, f, border_of(i))
             } else {
                 $c.step::<2>(a(i), e, f, [0.0; 4])
             }
@@ -431,7 +439,7 @@ fn positive_definite_chain(
     let q00 = a(n - 2) - s[0];
     let q01 = -o(n - 2, 0) - s[1];
     let q11 = a(n - 1) - s[2];
-    q00 > 0.0 && q00 * q11 - q01 * q01 > 0.0 && q11.is_finite()
+    q00 > 0.0 && q00.is_finite() && q00 * q11 - q01 * q01 > 0.0 && q11.is_finite()
 }
 
 /// [`below_shift`] on the assembled dense matrix (small grids, where periodic couplings of
@@ -600,7 +608,9 @@ mod tests {
         // (where pivots fail early, late, or in the border): the split elimination agrees
         // with the single chain, and with dense eigenvalues away from ties.
         let mut seed = 23;
-        for n in [16, 17, 18, 19, 23, 31, 64] {
+        // From 10 nodes (chains of 3, where a node is both among the first and the last two
+        // of its chain) although the tests only split from SPLIT_MIN = 16 on.
+        for n in [10, 11, 12, 13, 16, 17, 18, 19, 23, 31, 64] {
             for periodic in [false, true] {
                 let diag: Vec<f64> = (0..n).map(|_| 1.0 + 3.0 * lcg(&mut seed)).collect();
                 let mut off: Vec<[f64; 2]> = (0..n)
@@ -636,5 +646,9 @@ mod tests {
         off[4][0] = f64::NAN;
         assert!(!below_shift(&diag, &off, true, 2.0));
         assert!(!below_shift(&diag, &[[0.0; 2]; 10], true, f64::INFINITY));
+        // An infinite entry in the periodic border (single chain, 8 nodes): μ − C(6, 6) = ∞.
+        let mut diag = vec![1.0; 8];
+        diag[6] = f64::NEG_INFINITY;
+        assert!(!below_shift(&diag, &[[0.0; 2]; 8], true, 2.0));
     }
 }
