@@ -170,8 +170,6 @@ pub struct CertifiedTracker {
     config: CertifiedConfig,
     tracker: LambdaMaxTracker,
     anchor: Option<Anchor>,
-    /// Scratch for the power step (swapped with the anchor's `z`).
-    next: Vec<f64>,
     /// Scratch: the pencil bands of an anchor's state (from the stepper's `K_N`).
     pencil: Pencil,
 }
@@ -183,7 +181,6 @@ impl Default for CertifiedTracker {
             config: CertifiedConfig::default(),
             tracker: Self::anchor_tracker(LanczosConfig::default()),
             anchor: None,
-            next: Vec::new(),
             pencil: Pencil::default(),
         }
     }
@@ -209,7 +206,6 @@ impl CertifiedTracker {
             config,
             tracker: Self::anchor_tracker(lanczos),
             anchor: None,
-            next: Vec::new(),
             pencil: Pencil::default(),
         })
     }
@@ -269,8 +265,7 @@ impl CertifiedTracker {
                 k,
                 view.node_mass,
                 view.node_active,
-                &anchor.z,
-                &mut self.next,
+                &mut anchor.z,
                 anchor.last_rayleigh,
                 lambda_floor,
             );
@@ -288,7 +283,6 @@ impl CertifiedTracker {
                 if !(due || dropped || above || rose) {
                     anchor.served = anchor.served.saturating_add(1);
                     anchor.last_rayleigh = p.rayleigh;
-                    std::mem::swap(&mut anchor.z, &mut self.next);
                     return Ok(CertifiedEstimate {
                         estimate: estimate(view.grid.h, k.c2_ref, served, 0),
                         rayleigh: p.rayleigh,
@@ -301,8 +295,8 @@ impl CertifiedTracker {
                 // A stale mode (its quotient dropped) or a diagonal entry above the served
                 // value: the served value itself is in doubt, so the full anchor runs.
                 recertify = (!(dropped || above)).then_some(anchor.ratio);
-                // Keep the power step: it can only improve the mode the anchor certifies.
-                std::mem::swap(&mut anchor.z, &mut self.next);
+                // The power step (already in `z`) can only improve the mode the anchor
+                // certifies.
             }
         }
         // The common anchor, on the operator at hand — the pencil `μ diag(m) − K_N` of the
