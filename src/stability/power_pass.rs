@@ -438,7 +438,7 @@ mod avx2 {
         Interior {
             lanes: acc,
             end: i,
-            pending: (i > 2).then_some((i - LANES, last)),
+            pending: (i > 2).then(|| (i - LANES, last)),
         }
     }
 }
