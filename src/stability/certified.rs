@@ -20,15 +20,18 @@
 //! **Certification.** Every `certify_every` proposals, and whenever a served step looks
 //! suspicious, the tracker tests `μI − C ≻ 0` by one `LDLᵀ` pass ([`super::certificate`]);
 //! with the stepper's `K_N` it tests the congruent pencil `μ diag(m) − K_N` instead, which
-//! needs no operator build ([`super::certificate::below_shift_pencil`], bands prepared once per anchor by [`Pencil`]). A scheduled anchor (`due`, or the rise
-//! trigger below) first re-certifies **the value being served**, `μ₁ = r ρ`: success proves
+//! needs no operator build ([`super::certificate::below_shift_pencil`], bands prepared once
+//! per anchor by [`Pencil`]). A scheduled anchor (`due`, or the rise trigger below) first
+//! re-certifies **the value being served**, `μ₁ = r ρ`: success proves
 //! that value was an upper bound, and the bracket `[ρ, μ₁]` is then bisected on the same
 //! operator, starting at `(1 + margin) ρ`, until `hi ≤ (1 + margin) lo` — usually one or
 //! three more factorisations, no Lanczos. Failure means an eigenvalue lies above the served
-//! value (a level crossing, a mode that `z` does not see): the tracker then builds `C`, runs
-//! a warm Lanczos update (with its diagonal guard), certifies `(1 + margin) θ`, and if that
-//! fails too a cold, tight Lanczos and finally a bisection between the failed shift and the
-//! rigorous Gershgorin bound. An anchor triggered by a dropped quotient or a diagonal entry
+//! value (a level crossing, a mode that `z` does not see, or simply a served value a little
+//! low): the shift then grows on the same operator, `r ρ (1 + 2^k margin)` for `k = 1 … 4`
+//! (0.2 % … 1.6 % above), and the bracket found is bisected as above. Only when that fails
+//! too does the tracker build `C`, run a warm Lanczos update (with its diagonal guard),
+//! certify `(1 + margin) θ`, then a cold, tight Lanczos and finally a bisection between the
+//! failed shift and the rigorous Gershgorin bound. An anchor triggered by a dropped quotient or a diagonal entry
 //! (below) skips the re-certification of the served value, which is in doubt there, and
 //! tries `(1 + margin) ρ` directly (on the pencil when it can), then the same fall-back. How often
 //! each path runs in a 10⁵-particle controller run: README "Stability".
@@ -321,33 +324,58 @@ impl CertifiedTracker {
             };
             let tight = (1.0 + margin) * rho;
             let first = recertify.map_or(tight, |ratio| (ratio * rho).max(tight));
-            match test(first) {
-                Some(true) => {
-                    // Certified below `first`; ρ ≤ λmax. A loose bracket is bisected on the
-                    // same operator down to the margin, starting at the tight shift.
-                    factorisations += 1;
-                    let (mut lo, mut hi, mut mu) = (rho, first, tight);
-                    while hi > (1.0 + margin) * lo && factorisations < 64 {
-                        match test(mu) {
-                            Some(true) => hi = mu,
-                            Some(false) => lo = mu,
-                            None => break,
-                        }
+            // Certified below `hi`; λmax ≥ `lo` (ρ, then every failed shift, up to rounding).
+            let (mut lo, mut hi) = (rho, None);
+            let mut mu = first;
+            for k in 1..=GROWTH_STEPS + 1 {
+                match test(mu) {
+                    Some(true) => {
                         factorisations += 1;
-                        mu = 0.5 * (lo + hi);
+                        hi = Some(mu);
+                        break;
                     }
-                    let scale = Scale {
-                        n_nodes: view.node_mass.len(),
-                        h: view.grid.h,
-                        c2_ref: stiffness.unwrap_or(op.stiffness()).c2_ref,
-                    };
-                    return Ok(self.anchored(scale, rho, hi, 0, factorisations));
+                    Some(false) => {
+                        factorisations += 1;
+                        lo = mu;
+                    }
+                    None => break,
                 }
-                Some(false) => {
+                // A served value that failed: the top is usually just above it (served
+                // values are measured within 2 % of λmax), so the shift grows on the same
+                // operator, 0.2 % … 1.6 % above it, before the Lanczos fall-back. After a
+                // dropped quotient or a high diagonal entry the mode itself is in doubt:
+                // straight to the fall-back.
+                if recertify.is_none() || k > GROWTH_STEPS {
+                    break;
+                }
+                mu = first * (1.0 + margin * f64::from(1u32 << k));
+            }
+            if let Some(mut hi) = hi {
+                // Bisect the bracket to the margin on the same operator, from the tight
+                // shift when it lies inside.
+                let mut mu = if lo < tight && tight < hi {
+                    tight
+                } else {
+                    0.5 * (lo + hi)
+                };
+                while hi > (1.0 + margin) * lo && factorisations < 64 {
+                    match test(mu) {
+                        Some(true) => hi = mu,
+                        Some(false) => lo = mu,
+                        None => break,
+                    }
                     factorisations += 1;
-                    proven_above = Some(first);
+                    mu = 0.5 * (lo + hi);
                 }
-                None => {}
+                let scale = Scale {
+                    n_nodes: view.node_mass.len(),
+                    h: view.grid.h,
+                    c2_ref: stiffness.unwrap_or(op.stiffness()).c2_ref,
+                };
+                return Ok(self.anchored(scale, rho, hi, 0, factorisations));
+            }
+            if lo > rho {
+                proven_above = Some(lo);
             }
         }
         if !built {
@@ -568,6 +596,10 @@ fn diagonal_above(kd: &[f64], mass: &[f64], active: &[bool], lambda: f64) -> boo
         .zip(active)
         .any(|((&k, &m), &a)| a && k > lambda * m)
 }
+
+/// Shifts tried above a served value that failed its certificate, `r ρ (1 + 2^k margin)` for
+/// `k = 1 …` this, before the Lanczos fall-back (module docs).
+const GROWTH_STEPS: u32 = 4;
 
 /// What turns a certified `λmax(C)` into an estimate: the node count (for the rounding
 /// slack), the grid spacing and the reference wave speed².
