@@ -51,9 +51,9 @@
 //!
 //! | case          | mean dt / critical | raw ratio | synchronised ratio | lag-corrected |
 //! |---------------|-------------------:|----------:|-------------------:|--------------:|
-//! | uniform 10⁻²  | 0.879              | 1.051     | 1.007              | 1.019         |
-//! | uniform 10⁻⁴  | 0.887              | 1.930     | 0.816              | 0.817         |
-//! | jittered 10⁻² | 0.891              | 1.062     | 1.065              | 1.061         |
+//! | uniform 10⁻²  | 0.879              | 1.045     | 1.003              | 1.015         |
+//! | uniform 10⁻⁴  | 0.887              | 1.930     | 0.816              | 0.816         |
+//! | jittered 10⁻² | 0.891              | 1.047     | 1.048              | 1.046         |
 //! | jittered 10⁻⁴ | 0.896              | 1.026     | 0.997              | 1.007         |
 //!
 //! * **No blow-up**, every case: every controlled step succeeds and the energy stays below
