@@ -199,7 +199,7 @@ pub fn checkerboard_share(view: &View<'_>) -> f64 {
 /// Total energy `Σ ½ m v² + Σ ½ σ² F V⁰ / E_t` of a state (particles with `E_t ≤ 0` add no
 /// strain energy; fields shorter than the particle count end the sum there).
 ///
-/// Summed in [`ENERGY_LANES`] independent lanes, combined in lane order at the end, every
+/// Summed in four independent lanes, combined in lane order at the end, every
 /// branch a select, so the loop vectorises instead of running one chain of dependent adds
 /// and divisions (deterministic: the same inputs give the same bits; it differs from a
 /// sequential sum by rounding only).

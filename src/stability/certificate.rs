@@ -22,7 +22,7 @@
 //! nodes have 3-term inner products (`‖·‖₂ ≤ 2 √m γ_3 μ`), and the border's own `2 × 2`
 //! block sums over the whole chain (`γ_{m+2} μ` per entry). In all, for one chain of `n`
 //! nodes, `‖ΔA‖₂ ≤ (19 + 6√n + 2n) u μ`. The two-chain elimination used from 16 nodes on
-//! ([`positive_definite_split`]) adds the middle border's two columns (3-term inner products
+//! (two chains eliminated side by side) adds the middle border's two columns (3-term inner products
 //! at the chains' ends) and its `4 × 4` block (sums over both chains): about `40 u μ` more,
 //! `(59 + 6√n + 2n) u μ`. Both are at most `2 (20 + 3n) u μ` (the first for every `n`, the
 //! second from `n = 16`: `4n − 6√n − 19 ≥ 0`), so a successful test proves
