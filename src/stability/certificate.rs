@@ -21,15 +21,16 @@
 //! `L` are full (the fill of the forward solve): their `2m` entries with the chain of `m`
 //! nodes have 3-term inner products (`‖·‖₂ ≤ 2 √m γ_3 μ`), and the border's own `2 × 2`
 //! block sums over the whole chain (`γ_{m+2} μ` per entry). In all, for one chain of `n`
-//! nodes, `‖ΔA‖₂ ≤ (19 + 6√n + 2n) u μ`. The two-chain elimination used from 16 nodes on
-//! (two chains eliminated side by side) adds the middle border's two columns (3-term inner products
-//! at the chains' ends) and its `4 × 4` block (sums over both chains): about `40 u μ` more,
-//! `(59 + 6√n + 2n) u μ`. Both are at most `2 (20 + 3n) u μ` (the first for every `n`, the
-//! second from `n = 16`: `4n − 6√n − 19 ≥ 0`), so a successful test proves
-//! `λmax(C) < μ (1 + 2 (20 + 3n) u)`; [`rounding_slack`] adds that (and at least `10⁻¹²`) to
-//! every certified bound — `3·10⁻¹¹` relative at `5·10⁴` nodes. A *failed* test proves
-//! `λmax ≥ μ` only up to the same rounding; the trackers use failures to steer a search,
-//! never as a bound they serve.
+//! nodes, `‖ΔA‖₂ ≤ (19 + 6√n + 2n) u μ`. The elimination in `C ≤ 4` chains side by side used
+//! from 16 nodes on adds borders: their `2C` columns (the fill of each chain's forward solve,
+//! 3-term inner products) have Frobenius norm at most `3 √(2Cn) u μ`, and the `2C × 2C`
+//! border block, whose entries sum over at most two chains (`≤ 2n/C + 8` terms with its own
+//! Cholesky), at most `(4n + 16C) u μ`: `(79 + 8.5√n + 4n) u μ` in all. Each bound is at most
+//! `2 (20 + 3n) u μ` from `n = 50` on, and below 1500 nodes the floor `10⁻¹²` (about `9000 u`)
+//! is larger still, so a successful test proves `λmax(C) < μ (1 + slack)` with
+//! [`rounding_slack`] `= max(10⁻¹², 2 (20 + 3n) u)` added to every certified bound —
+//! `3·10⁻¹¹` relative at `5·10⁴` nodes. A *failed* test proves `λmax ≥ μ` only up to the
+//! same rounding; the trackers use failures to steer a search, never as a bound they serve.
 
 use nalgebra::{Cholesky, DMatrix};
 
@@ -156,8 +157,9 @@ impl Pencil {
 
 /// The `LDLᵀ` positivity test of the symmetric pentadiagonal `A` with `A(k, k) = a(k)` and
 /// `A(k, k+j+1) = −o(k, j)` (`j = 0, 1`, indices wrapped on periodic grids; `n ≥ 7`): from
-/// [`SPLIT_MIN`] nodes on as two chains eliminated side by side ([`positive_definite_split`]),
-/// below that as one ([`positive_definite_chain`]).
+/// [`SPLIT_MIN`] nodes on as chains eliminated side by side ([`positive_definite_chains`]:
+/// four from `4 · SPLIT_MIN / 2` nodes, else two), below that as one
+/// ([`positive_definite_chain`]).
 #[inline(always)]
 fn positive_definite(
     n: usize,
@@ -165,14 +167,16 @@ fn positive_definite(
     a: impl Fn(usize) -> f64,
     o: impl Fn(usize, usize) -> f64,
 ) -> bool {
-    if n >= SPLIT_MIN {
-        positive_definite_split(n, periodic, a, o)
+    if n >= 2 * SPLIT_MIN {
+        positive_definite_chains::<4>(n, periodic, a, o)
+    } else if n >= SPLIT_MIN {
+        positive_definite_chains::<2>(n, periodic, a, o)
     } else {
         positive_definite_chain(n, periodic, a, o)
     }
 }
 
-/// Nodes from which [`positive_definite`] splits the elimination into two chains.
+/// Nodes from which [`positive_definite`] splits the elimination into chains.
 const SPLIT_MIN: usize = 16;
 
 /// One chain of an `LDLᵀ` elimination in progress: the last two reciprocal pivots and
@@ -234,30 +238,50 @@ impl Chain {
     }
 }
 
-/// [`positive_definite`] as two chains. With the border `B2 = {h, h+1}` in the middle (and,
-/// periodic, `B1 = {n−2, n−1}` as in [`positive_definite_chain`]), the nodes fall into chain
-/// `P = 0 … h−1` and chain `R = h+2 … n'−1` (`n' = n − 2` periodic, `n` fixed), which do not
-/// couple to each other (the half-bandwidth is 2). `P` is eliminated forward and `R`
-/// backward, in one loop, so the two chains of dependent divisions overlap: each chain meets
-/// `B1` at its first two nodes (periodic) and `B2` only at its last two, so the forward solve
-/// carries two border columns along the chain and the other two only at its end. The test
-/// is then the positivity of the Schur complement `S = Q − Σ y yᵀ/d` of the border (4 × 4,
-/// or 2 × 2 on a fixed grid) — Haynsworth: `inertia(A) = inertia(P ⊕ R) + inertia(S)`,
-/// and a failed pivot in a chain is a leading principal submatrix (of a symmetric
-/// permutation of `A`) that is not positive definite. The same matrix, reordered: the
-/// rounding analysis of the module docs holds with the border's sums over both chains.
+/// [`positive_definite`] as `C` chains eliminated side by side. Borders of two nodes cut the
+/// node lattice into `C` chains that do not couple to each other (the half-bandwidth is 2):
+/// on a periodic grid `C` borders, the last `{n−2, n−1}`, each following its chain; on a
+/// fixed grid the `C − 1` borders between the chains. Every chain is eliminated forward, all
+/// in one loop, so their chains of dependent divisions overlap. A chain meets the border
+/// before it at its first two nodes and the border after it at its last two, so its forward
+/// solve carries two border columns along and two more at its end ([`Chain`]). The test is
+/// then the positivity of the borders' Schur complement `S = Q − Σ_chains Σ y yᵀ/d`
+/// (`2C × 2C` periodic, `2(C−1)` fixed) — Haynsworth: `inertia(A) = inertia(⊕ chains) +
+/// inertia(S)`, and a failed pivot in a chain is a leading principal submatrix (of a
+/// symmetric permutation of `A`) that is not positive definite. The same matrix, reordered:
+/// the rounding analysis of the module docs holds with the borders' sums over their chains.
+/// Needs chains of at least two nodes (`n ≥ 4C` is plenty).
 #[inline(always)]
-fn positive_definite_split(
+fn positive_definite_chains<const C: usize>(
     n: usize,
     periodic: bool,
     a: impl Fn(usize) -> f64,
     o: impl Fn(usize, usize) -> f64,
 ) -> bool {
-    let end = if periodic { n - 2 } else { n };
-    let h = end / 2 - 1;
-    let border = [n - 2, n - 1, h, h + 1];
-    // A(i, j) for two distinct nodes (zero unless within two places, wrapped on periodic
-    // grids; a fixed grid's storage holds zeros past its end).
+    const NONE: usize = usize::MAX;
+    let borders = if periodic { C } else { C - 1 };
+    let in_chains = n - 2 * borders;
+    // Chain k: `start[k] .. start[k] + len[k]`; border k: the two nodes after chain k.
+    let mut start = [0usize; C];
+    let mut len = [0usize; C];
+    let mut at = 0;
+    for k in 0..C {
+        start[k] = at;
+        len[k] = in_chains / C + usize::from(k < in_chains % C);
+        at += len[k] + 2;
+    }
+    let border_node = |b: usize, t: usize| start[b] + len[b] + t;
+    // The border before chain k and after it (NONE at a fixed grid's ends).
+    let before = |k: usize| {
+        if k > 0 {
+            k - 1
+        } else if periodic {
+            C - 1
+        } else {
+            NONE
+        }
+    };
+    let after = |k: usize| if k + 1 < C || periodic { k } else { NONE };
     let coupling = |i: usize, j: usize| -> f64 {
         let (lo, hi) = if i < j { (i, j) } else { (j, i) };
         let d = hi - lo;
@@ -269,89 +293,87 @@ fn positive_definite_split(
             0.0
         }
     };
-    let border_of = |k: usize| -> [f64; 4] {
+    let columns = |i: usize, k: usize| -> [f64; 4] {
         let mut b = [0.0; 4];
-        for (c, &q) in border.iter().enumerate() {
-            if periodic || c >= 2 {
-                b[c] = coupling(k, q);
+        for (c, border) in [before(k), after(k)].into_iter().enumerate() {
+            if border != NONE {
+                b[2 * c] = coupling(i, border_node(border, 0));
+                b[2 * c + 1] = coupling(i, border_node(border, 1));
             }
         }
         b
     };
-    // Chain P: nodes 0 … h−1 in order; chain R: nodes end−1 … h+2, i.e. node end−1−k.
-    let len_p = h;
-    let len_r = end - (h + 2);
-    let node_r = |k: usize| end - 1 - k;
-    let (mut p, mut r) = (Chain::START, Chain::START);
-    // Position k of a chain: couplings to its previous two nodes; border columns at its
-    // first two nodes (B1) and last two (B2).
-    // Position k of a chain at node i with couplings e, f to its previous two nodes; border
-    // columns at its first two nodes (B1) and its last two (B2). A macro rather than a
-    // closure so that the chain state stays in registers.
-    macro_rules! step {
-        ($c:expr, $k:expr, $len:expr, $i:expr, $e:expr, $f:expr) => {{
-            let (k, i) = ($k, $i);
-            let e = if k >= 1 { $e } else { 0.0 };
-            let f = if k >= 2 { $f } else { 0.0 };
-            // Within two of the chain's end first: in a short chain a node can be among
-            // the first two and the last two, and then needs all four columns.
-            if k + 2 >= $len {
-                $c.step::<4>(a(i), e, f, border_of(i))
-            } else if k < 2 {
-                $c.step::<2>(a(i), e, f, border_of(i))
-            } else {
-                $c.step::<2>(a(i), e, f, [0.0; 4])
+    let mut chains = [Chain::START; C];
+    let longest = len[0];
+    for j in 0..longest {
+        let mut ok = true;
+        for k in 0..C {
+            if j >= len[k] {
+                continue;
             }
-        }};
-    }
-    let common = len_p.min(len_r);
-    for k in 0..common {
-        let i = node_r(k);
-        let ok_p = step!(p, k, len_p, k, -o(k - 1, 0), -o(k - 2, 1));
-        let ok_r = step!(r, k, len_r, i, -o(i, 0), -o(i, 1));
-        if !(ok_p && ok_r) {
-            return false;
-        }
-    }
-    for k in common..len_p {
-        if !step!(p, k, len_p, k, -o(k - 1, 0), -o(k - 2, 1)) {
-            return false;
-        }
-    }
-    for k in common..len_r {
-        let i = node_r(k);
-        if !step!(r, k, len_r, i, -o(i, 0), -o(i, 1)) {
-            return false;
-        }
-    }
-    // The border's Schur complement, upper triangle row by row over [B1₀, B1₁, B2₀, B2₁]
-    // (on a fixed grid only B2: the 2 × 2 block of rows and columns 2, 3).
-    let mut q = [[0.0_f64; 4]; 4];
-    let mut idx = 0;
-    for i in 0..4 {
-        for j in i..4 {
-            let aij = if i == j {
-                a(border[i])
+            let i = start[k] + j;
+            let e = if j >= 1 { -o(i - 1, 0) } else { 0.0 };
+            let f = if j >= 2 { -o(i - 2, 1) } else { 0.0 };
+            let c = &mut chains[k];
+            // Within two of the chain's end first: a short chain's node can be among the
+            // first two and the last two, and then needs all four columns.
+            ok &= if j + 2 >= len[k] {
+                c.step::<4>(a(i), e, f, columns(i, k))
+            } else if j < 2 {
+                c.step::<2>(a(i), e, f, columns(i, k))
             } else {
-                coupling(border[i], border[j])
+                c.step::<2>(a(i), e, f, [0.0; 4])
             };
-            let sij = aij - p.s[idx] - r.s[idx];
-            q[i][j] = sij;
-            q[j][i] = sij;
-            idx += 1;
+        }
+        if !ok {
+            return false;
         }
     }
-    let first = if periodic { 0 } else { 2 };
-    dense_positive_definite(&q, first)
+    // The Schur complement of the borders, node 2b + t for node t of border b.
+    let m = 2 * borders;
+    let mut q = [[0.0_f64; 2 * MAX_CHAINS]; 2 * MAX_CHAINS];
+    let node = |x: usize| border_node(x / 2, x % 2);
+    for (x, row) in q.iter_mut().enumerate().take(m) {
+        for (y, entry) in row.iter_mut().enumerate().take(m) {
+            *entry = if x == y {
+                a(node(x))
+            } else {
+                coupling(node(x), node(y))
+            };
+        }
+    }
+    for (k, chain) in chains.iter().enumerate() {
+        // The chain's columns: [before 0, before 1, after 0, after 1].
+        let slot = |c: usize| {
+            let border = if c < 2 { before(k) } else { after(k) };
+            (border != NONE).then(|| 2 * border + c % 2)
+        };
+        let mut idx = 0;
+        for ci in 0..4 {
+            for cj in ci..4 {
+                if let (Some(x), Some(y)) = (slot(ci), slot(cj)) {
+                    q[x][y] -= chain.s[idx];
+                    if x != y {
+                        q[y][x] -= chain.s[idx];
+                    }
+                }
+                idx += 1;
+            }
+        }
+    }
+    dense_cholesky_positive(&q, m)
 }
 
-/// Whether the symmetric block `q[first..4][first..4]` is positive definite (Cholesky by
-/// hand: every pivot positive and finite).
-fn dense_positive_definite(q: &[[f64; 4]; 4], first: usize) -> bool {
-    let mut l = [[0.0_f64; 4]; 4];
-    for i in first..4 {
-        for j in first..=i {
-            let sum = (first..j).fold(q[i][j], |sum, k| sum - l[i][k] * l[j][k]);
+/// The most chains [`positive_definite_chains`] runs.
+const MAX_CHAINS: usize = 4;
+
+/// Whether the symmetric `q[..m][..m]` is positive definite (Cholesky by hand: every pivot
+/// positive and finite).
+fn dense_cholesky_positive(q: &[[f64; 2 * MAX_CHAINS]; 2 * MAX_CHAINS], m: usize) -> bool {
+    let mut l = [[0.0_f64; 2 * MAX_CHAINS]; 2 * MAX_CHAINS];
+    for i in 0..m {
+        for j in 0..=i {
+            let sum = (0..j).fold(q[i][j], |sum, k| sum - l[i][k] * l[j][k]);
             if i == j {
                 if !(sum > 0.0 && sum.is_finite()) {
                     return false;
@@ -603,14 +625,14 @@ mod tests {
     }
 
     #[test]
-    fn two_chains_decide_as_one_chain() {
+    fn chains_side_by_side_decide_as_one_chain() {
         // Random pentadiagonal matrices, shifts around λmax and the smallest eigenvalue
-        // (where pivots fail early, late, or in the border): the split elimination agrees
+        // (where pivots fail early, late, or in a border): two, three and four chains agree
         // with the single chain, and with dense eigenvalues away from ties.
         let mut seed = 23;
-        // From 10 nodes (chains of 3, where a node is both among the first and the last two
-        // of its chain) although the tests only split from SPLIT_MIN = 16 on.
-        for n in [10, 11, 12, 13, 16, 17, 18, 19, 23, 31, 64] {
+        // From 16 nodes (four chains of 2 on a periodic grid, where every node is among the
+        // first two and the last two of its chain) although only 32 nodes split in four.
+        for n in [16, 17, 18, 19, 20, 23, 24, 31, 32, 33, 64, 101] {
             for periodic in [false, true] {
                 let diag: Vec<f64> = (0..n).map(|_| 1.0 + 3.0 * lcg(&mut seed)).collect();
                 let mut off: Vec<[f64; 2]> = (0..n)
@@ -627,11 +649,17 @@ mod tests {
                     let mu = lmin + (lmax - lmin) * (t as f64 / 36.0 - 0.05);
                     let a = |k: usize| mu - diag[k];
                     let o = |k: usize, j: usize| off[k][j];
-                    let split = positive_definite_split(n, periodic, a, o);
                     let chain = positive_definite_chain(n, periodic, a, o);
-                    assert_eq!(split, chain, "n {n} periodic {periodic} μ {mu}");
+                    let two = positive_definite_chains::<2>(n, periodic, a, o);
+                    let three = positive_definite_chains::<3>(n, periodic, a, o);
+                    let four = positive_definite_chains::<4>(n, periodic, a, o);
+                    assert_eq!(
+                        (two, three, four),
+                        (chain, chain, chain),
+                        "n {n} periodic {periodic} μ {mu}"
+                    );
                     if (mu - lmax).abs() > 1e-9 * lmax.abs() {
-                        assert_eq!(split, mu > lmax, "n {n} periodic {periodic} μ {mu}");
+                        assert_eq!(chain, mu > lmax, "n {n} periodic {periodic} μ {mu}");
                     }
                 }
             }
