@@ -243,7 +243,8 @@ impl CertifiedTracker {
     }
 
     /// `λmax` of the nodal operator of `view` (module docs). `op` is scratch: it is rebuilt
-    /// from `view` only when the tracker anchors (and then holds `C` of `view`).
+    /// from `view` only when the view carries no `K_N` or an anchor falls back to Lanczos
+    /// (and then holds `C` of `view`); anchors on the pencil leave it as it was.
     pub fn update(
         &mut self,
         view: &View<'_>,
@@ -296,7 +297,8 @@ impl CertifiedTracker {
                 tracing::trace!(due, dropped, above, rose, "lambda_max: anchoring");
                 hint = Some(p.rayleigh);
                 // A stale mode (its quotient dropped) or a diagonal entry above the served
-                // value: the served value itself is in doubt, so the full anchor runs.
+                // value: the served value itself is in doubt, so the anchor skips its
+                // re-certification and the shift growth and tries (1 + margin) ρ directly.
                 recertify = (!(dropped || above)).then_some(anchor.ratio);
                 // The power step (already in `z`) can only improve the mode the anchor
                 // certifies.
