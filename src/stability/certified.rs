@@ -326,56 +326,28 @@ impl CertifiedTracker {
             };
             let tight = (1.0 + margin) * rho;
             let first = recertify.map_or(tight, |ratio| (ratio * rho).max(tight));
-            // Certified below `hi`; λmax ≥ `lo` (ρ, then every failed shift, up to rounding).
-            let (mut lo, mut hi) = (rho, None);
-            let mut mu = first;
-            for k in 1..=GROWTH_STEPS + 1 {
-                match test(mu) {
-                    Some(true) => {
-                        factorisations += 1;
-                        hi = Some(mu);
-                        break;
-                    }
-                    Some(false) => {
-                        factorisations += 1;
-                        lo = mu;
-                    }
-                    None => break,
-                }
-                // A served value that failed: the top is usually just above it (served
-                // values are measured within 2 % of λmax), so the shift grows on the same
-                // operator, 0.2 % … 1.6 % above it, before the Lanczos fall-back. After a
-                // dropped quotient or a high diagonal entry the mode itself is in doubt:
-                // straight to the fall-back.
-                if recertify.is_none() || k > GROWTH_STEPS {
-                    break;
-                }
-                mu = first * (1.0 + margin * f64::from(1u32 << k));
-            }
-            if let Some(mut hi) = hi {
-                // Bisect the bracket to the margin on the same operator, from the tight
-                // shift when it lies inside.
-                let mut mu = if lo < tight && tight < hi {
-                    tight
-                } else {
-                    0.5 * (lo + hi)
-                };
-                while hi > (1.0 + margin) * lo && factorisations < 64 {
-                    match test(mu) {
-                        Some(true) => hi = mu,
-                        Some(false) => lo = mu,
-                        None => break,
-                    }
-                    factorisations += 1;
-                    mu = 0.5 * (lo + hi);
-                }
+            // A served value that failed: the top is usually just above it (served values
+            // are measured within 2 % of λmax), so the shift grows on the same operator,
+            // 0.2 % … 1.6 % above it, before the Lanczos fall-back. After a dropped quotient
+            // or a high diagonal entry the mode itself is in doubt: straight to the fall-back.
+            let growth = if recertify.is_some() { GROWTH_STEPS } else { 0 };
+            let mut bracket = Bracket::new(test, margin, rho);
+            let certified = bracket.grow(first, 0..=growth).map(|hi| {
+                // Bisect to the margin on the same operator, from the tight shift when it
+                // lies inside the bracket.
+                let start = (bracket.lo < tight && tight < hi).then_some(tight);
+                bracket.bisect(hi, start)
+            });
+            let (lo, count) = (bracket.lo, bracket.factorisations);
+            if let Some(hi) = certified {
                 let scale = Scale {
                     n_nodes: view.node_mass.len(),
                     h: view.grid.h,
                     c2_ref: stiffness.unwrap_or(op.stiffness()).c2_ref,
                 };
-                return Ok(self.anchored(scale, rho, hi, 0, factorisations));
+                return Ok(self.anchored(scale, rho, hi, 0, count));
             }
+            factorisations = count;
             if lo > rho {
                 proven_above = Some(lo);
             }
@@ -421,34 +393,24 @@ impl CertifiedTracker {
         let (diag, off) = op.bands();
         let periodic = op.is_periodic();
         let margin = self.config.margin;
-        let mut factorisations = factorisations;
-        let test = |mu: f64, count: &mut usize| {
-            *count += 1;
-            below_shift(diag, off, periodic, mu)
-        };
-        // A zero operator (no stiffness) has λmax = 0: any positive shift certifies it.
-        let shift = |lo: f64, factor: f64| {
-            if lo > 0.0 {
-                lo * factor
-            } else {
-                f64::MIN_POSITIVE
-            }
-        };
-        let mut lo = op.diagonal_max().map_or(0.0, |(_, d)| d);
+        let test = |mu: f64| Some(below_shift(diag, off, periodic, mu));
+        let lower = op.diagonal_max().map_or(0.0, |(_, d)| d);
+        let mut bracket = Bracket::new(test, margin, lower);
+        bracket.factorisations = factorisations;
         let mut hi = None;
         let mut applications = 0;
         // 1. The served quotient (its z is kept when it certifies).
         let mut vector_ritz = None;
         if let Some(known) = proven_above {
-            lo = lo.max(known);
-        } else if let Some(rho) = hint.filter(|&r| r >= lo && self.anchor.is_some()) {
+            bracket.lo = bracket.lo.max(known);
+        } else if let Some(rho) = hint.filter(|&r| r >= bracket.lo && self.anchor.is_some()) {
             let mu = shift(rho, 1.0 + margin);
-            lo = lo.max(rho);
-            if test(mu, &mut factorisations) {
+            bracket.lo = bracket.lo.max(rho);
+            if bracket.certifies(mu) {
                 hi = Some(mu);
                 vector_ritz = Some(rho);
             } else {
-                lo = lo.max(mu);
+                bracket.lo = bracket.lo.max(mu);
             }
         }
         // 2. A warm Lanczos update.
@@ -457,25 +419,17 @@ impl CertifiedTracker {
             applications += est.applications;
             vector_ritz = Some(est.lambda_b);
             self.set_vector(op);
-            lo = lo.max(est.lambda_b);
-            let mu = shift(lo, 1.0 + margin);
-            if test(mu, &mut factorisations) {
+            bracket.lo = bracket.lo.max(est.lambda_b);
+            let mu = shift(bracket.lo, 1.0 + margin);
+            if bracket.certifies(mu) {
                 hi = Some(mu);
             } else {
-                lo = mu;
+                bracket.lo = mu;
             }
         }
         // 3. Geometric growth of the shift.
         if hi.is_none() {
-            let base = lo;
-            for k in 1..=6 {
-                let mu = shift(base, 1.0 + margin * f64::from(1u32 << k));
-                if test(mu, &mut factorisations) {
-                    hi = Some(mu);
-                    break;
-                }
-                lo = mu;
-            }
+            hi = bracket.grow(bracket.lo, 1..=6);
         }
         // 4. A cold, tight Lanczos (a mode far above the warm one), then Gershgorin.
         if hi.is_none() {
@@ -490,42 +444,36 @@ impl CertifiedTracker {
             let cold = self.tracker.update_with(op, tight)?;
             applications += cold.applications;
             tracing::debug!(
-                lo,
+                lo = bracket.lo,
                 cold = cold.lambda_b,
                 "lambda_max certificate failed: cold Lanczos retried"
             );
-            if cold.lambda_b > lo {
+            if cold.lambda_b > bracket.lo {
                 vector_ritz = Some(cold.lambda_b);
                 self.set_vector(op);
-                lo = cold.lambda_b;
-                let mu = shift(lo, 1.0 + margin);
-                if test(mu, &mut factorisations) {
+                bracket.lo = cold.lambda_b;
+                let mu = shift(bracket.lo, 1.0 + margin);
+                if bracket.certifies(mu) {
                     hi = Some(mu);
                 } else {
-                    lo = mu;
+                    bracket.lo = mu;
                 }
             }
         }
-        let mut hi = match hi {
+        let hi = match hi {
             Some(hi) => hi,
             None => {
                 let g = op.gershgorin_bound() * (1.0 + 1e-12);
-                if g > lo {
+                if g > bracket.lo {
                     g
                 } else {
-                    2.0 * lo
+                    2.0 * bracket.lo
                 }
             }
         };
         // 5. Bisection down to the margin.
-        while hi > (1.0 + margin) * lo && lo > 0.0 && factorisations < 64 {
-            let mid = 0.5 * (lo + hi);
-            if test(mid, &mut factorisations) {
-                hi = mid;
-            } else {
-                lo = mid;
-            }
-        }
+        let hi = bracket.bisect(hi, None);
+        let (lo, factorisations) = (bracket.lo, bracket.factorisations);
         if !hi.is_finite() {
             return Err(StabilityError::InvalidField {
                 field: "lambda_max",
@@ -597,6 +545,84 @@ fn diagonal_above(kd: &[f64], mass: &[f64], active: &[bool], lambda: f64) -> boo
         .zip(mass)
         .zip(active)
         .any(|((&k, &m), &a)| a && k > lambda * m)
+}
+
+/// A zero operator (no stiffness) has λmax = 0: any positive shift certifies it.
+fn shift(lo: f64, factor: f64) -> f64 {
+    if lo > 0.0 {
+        lo * factor
+    } else {
+        f64::MIN_POSITIVE
+    }
+}
+
+/// The search for a certified bracket `lo ≤ λmax < hi` that both anchor paths share: `test`
+/// is an inertia test on the operator at hand (`Some(true)`: every eigenvalue is below the
+/// shift; `None`: the test cannot run there). A failed test raises `lo` (up to rounding,
+/// module docs of [`super::certificate`]); `hi` only ever comes from a test that passed.
+struct Bracket<T: Fn(f64) -> Option<bool>> {
+    test: T,
+    margin: f64,
+    /// The lower end: a Rayleigh quotient or a failed shift.
+    lo: f64,
+    /// Tests run so far.
+    factorisations: usize,
+}
+
+impl<T: Fn(f64) -> Option<bool>> Bracket<T> {
+    fn new(test: T, margin: f64, lo: f64) -> Self {
+        Self {
+            test,
+            margin,
+            lo,
+            factorisations: 0,
+        }
+    }
+
+    /// One test at `mu`, counted when it ran.
+    fn run(&mut self, mu: f64) -> Option<bool> {
+        let passed = (self.test)(mu);
+        self.factorisations += usize::from(passed.is_some());
+        passed
+    }
+
+    /// Whether the test at `mu` certifies `λmax < mu`.
+    fn certifies(&mut self, mu: f64) -> bool {
+        self.run(mu) == Some(true)
+    }
+
+    /// Tries `base (1 + 2^k margin)` for `k` in `ks` (`k = 0`: `base` itself) until one
+    /// certifies, raising `lo` to each that fails: the first certified shift, or `None`.
+    fn grow(&mut self, base: f64, ks: std::ops::RangeInclusive<u32>) -> Option<f64> {
+        for k in ks {
+            let factor = if k == 0 {
+                1.0
+            } else {
+                1.0 + self.margin * f64::from(1u32 << k)
+            };
+            let mu = shift(base, factor);
+            match self.run(mu)? {
+                true => return Some(mu),
+                false => self.lo = mu,
+            }
+        }
+        None
+    }
+
+    /// Bisects `[lo, hi]` until `hi ≤ (1 + margin) lo` (at most 64 tests in all), the first
+    /// test at `start` when given: the narrowed `hi`.
+    fn bisect(&mut self, mut hi: f64, start: Option<f64>) -> f64 {
+        let mut mu = start.unwrap_or(0.5 * (self.lo + hi));
+        while hi > (1.0 + self.margin) * self.lo && self.lo > 0.0 && self.factorisations < 64 {
+            match self.run(mu) {
+                Some(true) => hi = mu,
+                Some(false) => self.lo = mu,
+                None => break,
+            }
+            mu = 0.5 * (self.lo + hi);
+        }
+        hi
+    }
 }
 
 /// Shifts tried above a served value that failed its certificate, `r ρ (1 + 2^k margin)` for
