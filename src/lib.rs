@@ -54,6 +54,7 @@ pub mod limit;
 pub mod mpm;
 pub mod nodal_stiffness;
 pub mod problems;
+mod recycled;
 pub mod scenario;
 pub mod shape;
 pub mod stability;

@@ -18,32 +18,28 @@
 //! thread of its stepper.
 
 use crate::grid::Grid;
+use crate::recycled::Recycled;
 use crate::shape::Shape;
 use crate::weights::Weights;
-use std::cell::{Cell, OnceCell};
 
 /// Per-state storage for weights computed on first use, reusing the allocation of the
-/// previous state's weights after [`WeightsCache::invalidate`].
-#[derive(Default)]
-pub struct WeightsCache {
-    cell: OnceCell<Weights>,
-    spare: Cell<Option<Weights>>,
-}
+/// previous state's weights after [`WeightsCache::invalidate`] ([`Recycled`]). A clone keeps
+/// computed weights but not the spare storage.
+#[derive(Clone, Default)]
+pub struct WeightsCache(Recycled<Weights>);
 
 impl WeightsCache {
     /// Forgets the weights (call when the positions change); their storage is kept for the
     /// next computation.
     pub fn invalidate(&mut self) {
-        if let Some(w) = self.cell.take() {
-            *self.spare.get_mut() = Some(w);
-        }
+        self.0.invalidate();
     }
 
     /// The weights of particles at `x` with widths `widths` on `grid`, computed on the first
     /// call after [`WeightsCache::invalidate`] ([`Weights::compute_into`]).
     pub fn get_or_compute(&self, grid: &Grid, shape: Shape, x: &[f64], widths: &[f64]) -> &Weights {
-        self.cell.get_or_init(|| {
-            let mut w = self.spare.take().unwrap_or_default();
+        self.0.get_or_init_with(|spare| {
+            let mut w = spare.unwrap_or_default();
             w.compute_into(grid, shape, x, widths);
             w
         })
@@ -51,17 +47,7 @@ impl WeightsCache {
 
     /// Whether the weights are computed.
     pub fn is_computed(&self) -> bool {
-        self.cell.get().is_some()
-    }
-}
-
-impl Clone for WeightsCache {
-    /// A clone keeps computed weights but not the spare storage.
-    fn clone(&self) -> Self {
-        Self {
-            cell: self.cell.clone(),
-            spare: Cell::new(None),
-        }
+        self.0.is_computed()
     }
 }
 

@@ -93,11 +93,7 @@ fn follow(
 fn bracket_holds_on_moving_gimp_layouts() {
     for (fixed_ends, provide) in [(false, false), (true, false), (false, true), (true, true)] {
         let cells = 64;
-        let grid = if fixed_ends {
-            fixed(cells, 1.0)
-        } else {
-            periodic(cells, 1.0)
-        };
+        let grid = grid_of(fixed_ends, cells);
         let x0 = jittered(cells, 1.0, 2, 0.6, 9);
         let x0 = if fixed_ends {
             // Keep clear of the clamped ends.
@@ -105,10 +101,7 @@ fn bracket_holds_on_moving_gimp_layouts() {
         } else {
             x0
         };
-        let mut fx = Fixture::new(grid, Shape::Gimp, x0, 1.0, 1.0);
-        if provide {
-            fx.provide_stiffness();
-        }
+        let mut fx = Fixture::new(grid, Shape::Gimp, x0, 1.0, 1.0).with_stiffness(provide);
         let h = fx.grid.h;
         let steps = 200;
         let f = follow(&mut fx, CertifiedConfig::default(), steps, |fx, _| {
@@ -143,13 +136,10 @@ fn bracket_follows_a_linear_hat_collapse() {
     // Particles slide into a configuration with a node of ≤ 2 % of the typical mass: λmax
     // grows by orders of magnitude and the bound must follow it from above at every step.
     let cells = 32;
-    let start = uniform(cells, 1.0, 2);
-    let end = small_mass(cells, 1.0, 11);
+    let (start, end) = collapse_layouts(cells);
     for provide in [false, true] {
-        let mut fx = Fixture::new(periodic(cells, 1.0), Shape::Linear, start.clone(), 1.0, 1.0);
-        if provide {
-            fx.provide_stiffness();
-        }
+        let mut fx = Fixture::new(periodic(cells, 1.0), Shape::Linear, start.clone(), 1.0, 1.0)
+            .with_stiffness(provide);
         let steps = 120;
         let f = follow(&mut fx, CertifiedConfig::default(), steps + 1, |fx, s| {
             let a = s as f64 / steps as f64;
@@ -181,13 +171,10 @@ fn the_stability_limit_follows_the_exact_eq56_step_through_a_collapse() {
     // most 1 % above it (measured: 0.11 %, inside the safety factor's 10 %), and none more
     // than 1 % below it.
     let cells = 32;
-    let start = uniform(cells, 1.0, 2);
-    let end = small_mass(cells, 1.0, 11);
+    let (start, end) = collapse_layouts(cells);
     for provide in [false, true] {
-        let mut fx = Fixture::new(periodic(cells, 1.0), Shape::Linear, start.clone(), 1.0, 1.0);
-        if provide {
-            fx.provide_stiffness();
-        }
+        let mut fx = Fixture::new(periodic(cells, 1.0), Shape::Linear, start.clone(), 1.0, 1.0)
+            .with_stiffness(provide);
         let mut limit = Stability::new(StabilityConfig::default()).unwrap();
         let safety = limit.safety();
         let steps = 200;
@@ -278,10 +265,8 @@ fn smallest_grids_are_bracketed() {
                 uniform(cells, 1.0, 2),
                 1.0,
                 1.0,
-            );
-            if provide {
-                fx.provide_stiffness();
-            }
+            )
+            .with_stiffness(provide);
             let h = fx.grid.h;
             follow(&mut fx, CertifiedConfig::default(), 8, |fx, step| {
                 for (p, x) in fx.x.iter_mut().enumerate() {
@@ -354,9 +339,7 @@ proptest! {
                 *e = stiff_ratio;
             }
         }
-        if provide {
-            fx.provide_stiffness();
-        }
+        let mut fx = fx.with_stiffness(provide);
         let h = fx.grid.h;
         let config = CertifiedConfig { certify_every, ..CertifiedConfig::default() };
         follow(&mut fx, config, 6, |fx, step| {

@@ -189,8 +189,7 @@ fn checkpoint_and_scale_safety() {
 #[test]
 fn cached_lambda_max_follows_a_collapsing_layout() {
     let cells = 32;
-    let start = uniform(cells, 1.0, 2);
-    let end = small_mass(cells, 1.0, 11);
+    let (start, end) = collapse_layouts(cells);
     let mut fx = Fixture::new(periodic(cells, 1.0), Shape::Linear, start.clone(), 1.0, 1.0);
     let mut cached = Stability::new(StabilityConfig {
         tracking: mpm_dt::stability::Tracking::Lanczos(mpm_dt::stability::Refresh::cached()),

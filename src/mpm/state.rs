@@ -4,14 +4,14 @@
 //! next step starts from, computed at `xⁿ`: `m_i` (eq 7), `v_i` (eq 17) and `a_i` (eq 18).
 //! Quantities only observers need — the weight matrices `S`, `D`, per-particle tangent
 //! modulus and density, and the node activity flags — are computed lazily on first use
-//! through [`OnceCell`]s and cleared whenever the buffer is overwritten, so the hot step
-//! never builds them.
+//! through [`Recycled`] cells, cleared (their storage kept) whenever the buffer is
+//! overwritten, so the hot step never builds them.
 
 use super::material::Material;
 use crate::grid::Grid;
 use crate::nodal_stiffness::NodalStiffness;
+use crate::recycled::{refill, Recycled};
 use crate::view_weights::WeightsCache;
-use std::cell::{Cell, OnceCell};
 
 /// Particle and nodal fields of one state, plus lazily computed observer data.
 #[derive(Clone, Debug, Default)]
@@ -31,38 +31,9 @@ pub(crate) struct State {
     /// accumulated it.
     pub stiffness: NodalStiffness,
     pub stiffness_valid: bool,
-    tangent_modulus: OnceCell<Vec<f64>>,
-    density: OnceCell<Vec<f64>>,
-    node_active: OnceCell<Vec<bool>>,
-    /// The allocations of the lazy fields, kept across [`Self::invalidate`] and reused by
-    /// the next computation: a fresh 10⁵-element vector per step is a fresh mapping, whose
-    /// page faults cost about 3 % of a controlled step (measured by `perf`).
-    spare: SpareCell,
-}
-
-/// Retired buffers of [`State`]'s lazy fields.
-#[derive(Debug, Default)]
-struct Spare {
-    tangent_modulus: Vec<f64>,
-    density: Vec<f64>,
-    node_active: Vec<bool>,
-}
-
-/// [`Spare`] behind a [`Cell`] (the lazy fields are filled through `&self`).
-#[derive(Default)]
-struct SpareCell(Cell<Spare>);
-
-impl Clone for SpareCell {
-    /// A clone starts without spare buffers (they hold no data).
-    fn clone(&self) -> Self {
-        Self::default()
-    }
-}
-
-impl std::fmt::Debug for SpareCell {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str("SpareCell")
-    }
+    tangent_modulus: Recycled<Vec<f64>>,
+    density: Recycled<Vec<f64>>,
+    node_active: Recycled<Vec<bool>>,
 }
 
 impl State {
@@ -83,61 +54,39 @@ impl State {
     /// Drops the lazily computed data (call before overwriting the fields).
     pub fn invalidate(&mut self) {
         self.weights.invalidate();
-        let spare = self.spare.0.get_mut();
-        if let Some(v) = self.tangent_modulus.take() {
-            spare.tangent_modulus = v;
-        }
-        if let Some(v) = self.density.take() {
-            spare.density = v;
-        }
-        if let Some(v) = self.node_active.take() {
-            spare.node_active = v;
-        }
-    }
-
-    /// A retired buffer of a lazy field, emptied, for its next computation.
-    fn reuse<T>(&self, pick: impl FnOnce(&mut Spare) -> &mut Vec<T>) -> Vec<T> {
-        let mut spare = self.spare.0.take();
-        let mut v = std::mem::take(pick(&mut spare));
-        self.spare.0.set(spare);
-        v.clear();
-        v
+        self.tangent_modulus.invalidate();
+        self.density.invalidate();
+        self.node_active.invalidate();
     }
 
     /// `E_t(F_p)` per particle.
     pub fn tangent_modulus(&self, material: &Material) -> &[f64] {
-        self.tangent_modulus.get_or_init(|| {
-            let mut v = self.reuse(|s| &mut s.tangent_modulus);
-            v.extend(self.f.iter().map(|&f| material.tangent_modulus(f)));
-            v
+        self.tangent_modulus.get_or_init_with(|spare| {
+            refill(spare, self.f.iter().map(|&f| material.tangent_modulus(f)))
         })
     }
 
     /// `ρ_p = m_p / (F_p V_p⁰)` per particle.
     pub fn density(&self, mass: &[f64], volume0: &[f64]) -> &[f64] {
-        self.density.get_or_init(|| {
-            let mut v = self.reuse(|s| &mut s.density);
-            v.extend(
-                self.f
-                    .iter()
-                    .zip(mass.iter().zip(volume0))
-                    .map(|(&f, (&m, &v0))| m / (f * v0)),
-            );
-            v
+        self.density.get_or_init_with(|spare| {
+            let rho = self
+                .f
+                .iter()
+                .zip(mass.iter().zip(volume0))
+                .map(|(&f, (&m, &v0))| m / (f * v0));
+            refill(spare, rho)
         })
     }
 
     /// Node activity flags: not constrained and `m_i` above `threshold`.
     pub fn node_active(&self, grid: &Grid, threshold: f64) -> &[bool] {
-        self.node_active.get_or_init(|| {
-            let mut v = self.reuse(|s| &mut s.node_active);
-            v.extend(
-                self.node_mass
-                    .iter()
-                    .enumerate()
-                    .map(|(i, &m)| is_active(grid, i, m, threshold)),
-            );
-            v
+        self.node_active.get_or_init_with(|spare| {
+            let active = self
+                .node_mass
+                .iter()
+                .enumerate()
+                .map(|(i, &m)| is_active(grid, i, m, threshold));
+            refill(spare, active)
         })
     }
 }

@@ -75,6 +75,14 @@ impl Fixture {
         }
     }
 
+    /// [`Self::provide_stiffness`] when `provide`.
+    pub fn with_stiffness(mut self, provide: bool) -> Self {
+        if provide {
+            self.provide_stiffness();
+        }
+        self
+    }
+
     /// From now on the view carries `K_N` (assembled from the weights, as
     /// [`NodalOperator`] does for a view without it), so the trackers take the path they
     /// take under a stepper that accumulates it.
@@ -105,6 +113,12 @@ impl Fixture {
             nodal_stiffness: self.stiffness.as_ref(),
         }
     }
+}
+
+/// The linear-hat collapse of the stability tests: two particles per cell on `cells` cells,
+/// and the layout they slide into, where node 11's mass is 1.5 % of a typical node's.
+pub fn collapse_layouts(cells: usize) -> (Vec<f64>, Vec<f64>) {
+    (uniform(cells, 1.0, 2), small_mass(cells, 1.0, 11))
 }
 
 /// `ppc` evenly spaced particles per cell (at the centres of `ppc` sub-cells).
