@@ -89,6 +89,17 @@ impl StandingWave {
             * (self.angular_frequency() * t).cos()
     }
 
+    /// `max_p |v_p − v(X_p, t)|`: the L∞ error ([`crate::estimators::linf`], NaN propagates)
+    /// of particle velocities `v` whose reference positions are `x0`.
+    pub fn velocity_error_linf(&self, x0: &[f64], v: &[f64], t: f64) -> f64 {
+        let e: Vec<f64> = x0
+            .iter()
+            .zip(v)
+            .map(|(&x, &v)| v - self.velocity(x, t))
+            .collect();
+        crate::estimators::linf(&e)
+    }
+
     /// Exact stress `σ(x, t) = E A cos(κ(x − a)) sin(ωt)`.
     pub fn stress(&self, x: f64, t: f64) -> f64 {
         self.youngs_modulus

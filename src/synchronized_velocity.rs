@@ -317,10 +317,8 @@ mod tests {
 
     /// `max_p |u_p − w_p|`.
     fn linf(u: &[f64], w: &[f64]) -> f64 {
-        u.iter()
-            .zip(w)
-            .map(|(a, b)| (a - b).abs())
-            .fold(0.0, f64::max)
+        let e: Vec<f64> = u.iter().zip(w).map(|(a, b)| a - b).collect();
+        crate::estimators::linf(&e)
     }
 
     /// A uniform standing wave (128 cells × 2, GIMP, `A = 10⁻⁴`) run to `T = 0.2` periods

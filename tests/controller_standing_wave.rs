@@ -160,15 +160,7 @@ fn dt_eq56(s: &ReferenceStepper) -> f64 {
 /// `max_p |v_p − v(X_p, t − lag)|` (`lag = 0`: the error at the run's time).
 fn velocity_error(s: &ReferenceStepper, wave: &StandingWave, x0: &[f64], lag: f64) -> f64 {
     let view = s.view();
-    linf_error(view.v, wave, x0, view.t - lag)
-}
-
-/// `max_p |v_p − v(X_p, t)|` for the velocities `v`.
-fn linf_error(v: &[f64], wave: &StandingWave, x0: &[f64], t: f64) -> f64 {
-    v.iter()
-        .zip(x0)
-        .map(|(&v, &x)| (v - wave.velocity(x, t)).abs())
-        .fold(0.0, f64::max)
+    wave.velocity_error_linf(x0, view.v, view.t - lag)
 }
 
 /// The error of the synchronised velocity (closing half step `half_step`) at the run's time.
@@ -177,7 +169,7 @@ fn sync_error(s: &ReferenceStepper, wave: &StandingWave, x0: &[f64], half_step: 
     let v = view
         .synchronized_velocity(half_step)
         .expect("synchronised velocity");
-    linf_error(&v, wave, x0, view.t)
+    wave.velocity_error_linf(x0, &v, view.t)
 }
 
 fn limits() -> Vec<Box<dyn StepLimit>> {

@@ -17,11 +17,7 @@ fn run(stepper: &mut ReferenceStepper, dt: f64, steps: usize) {
 /// `max_p |v_p − v(X_p, t)|` against the exact solution at the initial positions `x0`.
 fn velocity_error(stepper: &ReferenceStepper, wave: &StandingWave, x0: &[f64]) -> f64 {
     let view = stepper.view();
-    view.v
-        .iter()
-        .zip(x0)
-        .map(|(&v, &x)| (v - wave.velocity(x, view.t)).abs())
-        .fold(0.0, f64::max)
+    wave.velocity_error_linf(x0, view.v, view.t)
 }
 
 #[test]

@@ -162,11 +162,10 @@ struct Windows {
 pub struct GrowthMonitor {
     config: GrowthConfig,
     state: Windows,
-    /// The indicator (and confirming energy) of the last judged trial
-    /// `(t, dt, value, energy)`, reused by `accepted` when
-    /// it is called for that trial (same start time and step, compared bit for bit), so the
-    /// indicator is computed once per accepted step, not twice.
-    judged: Option<(f64, f64, f64, Option<f64>)>,
+    /// The window state the last judged trial would leave, `(t, dt, windows)`, taken by
+    /// `accepted` when it is called for that trial (same start time and step, compared bit
+    /// for bit), so the indicator and the windows are computed once per accepted step.
+    judged: Option<(f64, f64, Windows)>,
 }
 
 /// The name of the monitor in logs and statistics.
@@ -353,7 +352,6 @@ impl StepLimit for GrowthMonitor {
     ) -> Result<Judgement, LimitError> {
         let value = self.indicator(after);
         let energy = self.confirming_energy(after);
-        self.judged = Some((before.t, dt, value, energy));
         let mut metrics = Metrics::new();
         metrics.insert("growth_indicator".to_string(), value);
         let w = self.pushed(value, energy);
@@ -368,19 +366,17 @@ impl StepLimit for GrowthMonitor {
         } else {
             Verdict::Accept
         };
+        self.judged = Some((before.t, dt, w));
         Ok(Judgement { verdict, metrics })
     }
 
     fn accepted(&mut self, before: &View<'_>, after: &View<'_>, dt: f64) {
-        let (value, energy) = match self.judged.take() {
-            Some((t, d, value, energy))
-                if t.to_bits() == before.t.to_bits() && d.to_bits() == dt.to_bits() =>
-            {
-                (value, energy)
+        self.state = match self.judged.take() {
+            Some((t, d, w)) if t.to_bits() == before.t.to_bits() && d.to_bits() == dt.to_bits() => {
+                w
             }
-            _ => (self.indicator(after), self.confirming_energy(after)),
+            _ => self.pushed(self.indicator(after), self.confirming_energy(after)),
         };
-        self.state = self.pushed(value, energy);
     }
 
     fn rejected(&mut self, _dt: f64, cause: RejectCause) {

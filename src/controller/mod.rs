@@ -54,7 +54,7 @@ pub use scaled::SafetyScaled;
 pub use stats::Stats;
 pub use temporal_error::{TemporalError, TemporalErrorConfig, TEMPORAL_ERROR};
 
-use crate::limit::{LimitError, Metrics, RejectCause, StepLimit, Verdict};
+use crate::limit::{LimitError, RejectCause, StepLimit, Verdict};
 use crate::stepper::{StepError, Stepper, View};
 
 /// Why the controller stopped.
@@ -162,16 +162,6 @@ impl std::fmt::Debug for Controller {
 fn reached(t: f64, t_end: f64) -> bool {
     t >= t_end
         || (t_end.is_finite() && (t_end - t) <= 4.0 * f64::EPSILON * t_end.abs().max(t.abs()))
-}
-
-/// Moves the finite metrics of `from` into `into` (JSON cannot carry the others); the
-/// names are moved, not copied.
-fn finite_metrics(into: &mut Metrics, from: Metrics) {
-    for (k, v) in from {
-        if v.is_finite() {
-            into.insert(k, v);
-        }
-    }
 }
 
 /// What a bound on `dt` is: one of the controller's limits (by position) or one of the
@@ -524,7 +514,9 @@ impl Controller {
                                     return Err(ControllerError::Limit { t, source });
                                 }
                             };
-                            finite_metrics(&mut rec.metrics, j.metrics);
+                            // JSON cannot carry non-finite values; the names are moved.
+                            rec.metrics
+                                .extend(j.metrics.into_iter().filter(|(_, v)| v.is_finite()));
                             if let Verdict::Reject {
                                 cause: c,
                                 suggested_dt,
