@@ -31,6 +31,7 @@ fn invalid_values_name_their_field() {
     let cases: Vec<(&str, &str)> = vec![
         (r#"{"safety": 1.5}"#, "safety"),
         (r#"{"max_growth": 0.5}"#, "max_growth"),
+        (r#"{"hold_growth": 0.99}"#, "hold_growth"),
         (r#"{"min_shrink": 0.0}"#, "min_shrink"),
         (r#"{"max_shrink_repeated": 0.05}"#, "max_shrink_repeated"),
         (r#"{"dt_initial": -1.0}"#, "dt_initial"),
@@ -191,6 +192,7 @@ fn config() -> impl Strategy<Value = ControllerConfig> {
             dt_max: a.2,
             safety: a.3,
             max_growth: a.4,
+            hold_growth: 1.0 + (a.4 - 1.0) * b.3,
             min_shrink: b.0,
             max_shrink_first: b.1,
             max_shrink_repeated: b.2,

@@ -22,6 +22,7 @@ struct Case {
     nan_probability: f64,
     t_end: f64,
     filter: FilterPreset,
+    hold_growth: f64,
     seed: u64,
 }
 
@@ -41,16 +42,25 @@ fn case() -> impl Strategy<Value = Case> {
             FilterPreset::H0321,
             FilterPreset::H312,
         ]),
-        any::<u64>(),
+        (prop::sample::select(vec![1.0, 1.05, 1.5]), any::<u64>()),
     )
         .prop_map(
-            |(proposals, dt_max, error_max, nan_probability, t_end, filter, seed)| Case {
+            |(
                 proposals,
                 dt_max,
                 error_max,
                 nan_probability,
                 t_end,
                 filter,
+                (hold_growth, seed),
+            )| Case {
+                proposals,
+                dt_max,
+                error_max,
+                nan_probability,
+                t_end,
+                filter,
+                hold_growth,
                 seed,
             },
         )
@@ -71,6 +81,7 @@ fn run(c: &Case) -> Run {
     let config = ControllerConfig {
         dt_max: c.dt_max,
         filter: c.filter,
+        hold_growth: c.hold_growth,
         ..ControllerConfig::default()
     };
     let limits: Vec<Box<dyn StepLimit>> = vec![
@@ -163,6 +174,20 @@ proptest! {
                 if let Some(a) = last_accepted {
                     let g = if a.attempt > 1 { 1.0 } else { cfg.max_growth };
                     prop_assert!(d.dt <= g * a.dt * (1.0 + 1e-12), "growth {} after attempt {}", d.dt / a.dt, a.attempt);
+                    // The hold band: growth within (1, hold_growth] is not taken when a
+                    // limit's proposal binds; a held step repeats the last one exactly,
+                    // strictly below every limit's proposal (some bound, a proposal or the
+                    // filter's, lay inside the band).
+                    if d.binding == bound::HOLD {
+                        prop_assert_eq!(d.dt.to_bits(), a.dt.to_bits());
+                        for l in &d.limits {
+                            if let Some(p) = l.proposal {
+                                prop_assert!(p > d.dt, "held at {} with {} proposing {}", d.dt, l.name, p);
+                            }
+                        }
+                    } else if d.limits.iter().any(|l| l.name == d.binding) {
+                        prop_assert!(d.dt <= a.dt || d.dt > cfg.hold_growth * a.dt, "growth {} inside the hold band {}", d.dt / a.dt, cfg.hold_growth);
+                    }
                 }
             }
             if d.outcome == Outcome::Accepted {
@@ -186,4 +211,42 @@ proptest! {
         prop_assert_eq!(la, lb);
         prop_assert_eq!(a.end, b.end);
     }
+}
+
+/// The hold band on a scripted limit whose proposals rise by 2 % then 20 % and fall by 2 %
+/// (no temporal error, so the limit binds every step): the 2 % rise is held, the 20 % rise
+/// is taken, the fall is followed; with `hold_growth = 1` every proposal is followed.
+#[test]
+fn hold_band_keeps_small_rises_only() {
+    let proposals = vec![1.0e-3, 1.02e-3, 1.224e-3, 1.2e-3];
+    let dts = |hold_growth: f64| {
+        let c = Case {
+            proposals: proposals.clone(),
+            dt_max: None,
+            error_max: 0.0,
+            nan_probability: 0.0,
+            t_end: 1.0,
+            filter: FilterPreset::I,
+            hold_growth,
+            seed: 7,
+        };
+        let r = run(&c);
+        r.decisions
+            .iter()
+            .take(4)
+            .map(|d| (d.dt, d.binding.clone()))
+            .collect::<Vec<_>>()
+    };
+    let held = dts(1.05);
+    assert_eq!(
+        held,
+        vec![
+            (1.0e-3, "scripted".to_string()),
+            (1.0e-3, bound::HOLD.to_string()),
+            (1.224e-3, "scripted".to_string()),
+            (1.2e-3, "scripted".to_string()),
+        ]
+    );
+    let followed: Vec<f64> = dts(1.0).into_iter().map(|(dt, _)| dt).collect();
+    assert_eq!(followed, proposals);
 }

@@ -28,6 +28,9 @@ pub mod bound {
     pub const T_END: &str = "t_end";
     /// The growth cap `max_growth · dt_prev` (and "no growth after a rejection").
     pub const GROWTH_CAP: &str = "growth_cap";
+    /// The hold rule: a step that could grow by a factor in `(1, hold_growth]` keeps the
+    /// previous step ([`crate::controller::ControllerConfig::hold_growth`]).
+    pub const HOLD: &str = "hold";
     /// The shrink rule of a retry after a rejection.
     pub const RETRY: &str = "retry";
     /// The configured `dt_initial`.

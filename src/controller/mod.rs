@@ -7,6 +7,7 @@
 //!           dt_max,  t_end − t,
 //!           max_growth · dt_prev   (1 · dt_prev right after a rejected attempt),
 //!           η · dt_rejected        (on a retry) )
+//! dt = dt_prev   if a limit's proposal binds and dt_prev < dt ≤ hold_growth · dt_prev
 //! ```
 //!
 //! Per attempt: every limit proposes from the committed state, the stepper computes a trial,
@@ -455,6 +456,17 @@ impl Controller {
                 if b < dt {
                     dt = b;
                     binding_of = name;
+                }
+            }
+            // 2b. Hold the previous step when a limit's proposal binds and would let it
+            // grow only within the hold band (ControllerConfig::hold_growth). The filter's
+            // proposal is smooth by design and is never held; neither is the step clamped
+            // to t_end.
+            if let Some(prev) = self.state.dt_prev {
+                let by_limit = matches!(binding_of, BoundName::Limit(_));
+                if by_limit && dt > prev && dt <= self.config.hold_growth * prev {
+                    dt = prev;
+                    binding_of = BoundName::Named(bound::HOLD);
                 }
             }
             let binding = match binding_of {
