@@ -17,7 +17,8 @@
 //! `faer::sparse::SparseColMat` when general sparse algebra is wanted.
 
 use crate::grid::{Boundary, Grid};
-use crate::shape::{Shape, MAX_NODES};
+use crate::mpm::stencil;
+use crate::shape::{ParticleStencil, Shape, MAX_NODES};
 use faer::sparse::{SparseColMat, Triplet};
 
 /// `S` and `D` in fixed-width particle-major storage (see the module docs).
@@ -115,7 +116,9 @@ impl Weights {
     /// The weights of `shape` for particles at `x` with GIMP widths `widths` on `grid`.
     /// Positions must lie in the grid's domain (the reference solver guarantees it).
     ///
-    /// The values are those of [`Shape::stencil`]; [`Weights::compute_into`] does the same
+    /// The values are the reference solver's own branch-free stencils (`mpm::stencil`),
+    /// which agree with [`Shape::stencil`] to round-off: the weights a reference step from
+    /// these positions uses, bit for bit. [`Weights::compute_into`] does the same
     /// into existing storage.
     pub fn compute(grid: &Grid, shape: Shape, x: &[f64], widths: &[f64]) -> Self {
         let mut w = Self::default();
@@ -141,7 +144,7 @@ impl Weights {
             unsafe { fill_avx2(grid, shape, x, widths, out) };
             return;
         }
-        fill(grid, shape, x, widths, out);
+        fill_baseline(grid, shape, x, widths, out);
     }
 
     /// Number of nodes (rows of `S` and `D`).
@@ -242,21 +245,48 @@ impl Weights {
 /// The stored rows `(nodes, S, D)` that [`Weights::compute_into`] fills.
 type Rows<'a> = (&'a mut [u32], &'a mut [f64], &'a mut [f64]);
 
-/// [`fill`] compiled for AVX2, where `f64::floor` in [`Shape::stencil`] is one instruction
-/// instead of a call (the same exact result).
+/// [`fill`] compiled for AVX2, where `⌊·⌋` is one instruction (the same exact result as
+/// the baseline's truncation and correction, see `mpm::stencil`).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 fn fill_avx2(grid: &Grid, shape: Shape, x: &[f64], widths: &[f64], out: Rows<'_>) {
-    fill(grid, shape, x, widths, out);
+    match shape {
+        Shape::Gimp => fill::<true>(grid, x, widths, out, |x, l, inv_h| {
+            stencil::gimp_parts::<true>(x, l, inv_h)
+        }),
+        Shape::Linear => fill::<true>(grid, x, widths, out, |x, _, inv_h| {
+            stencil::linear_parts::<true>(x, inv_h)
+        }),
+    }
+}
+
+/// [`fill`] in the baseline build.
+fn fill_baseline(grid: &Grid, shape: Shape, x: &[f64], widths: &[f64], out: Rows<'_>) {
+    match shape {
+        Shape::Gimp => fill::<false>(grid, x, widths, out, |x, l, inv_h| {
+            stencil::gimp_parts::<false>(x, l, inv_h)
+        }),
+        Shape::Linear => fill::<false>(grid, x, widths, out, |x, _, inv_h| {
+            stencil::linear_parts::<false>(x, inv_h)
+        }),
+    }
 }
 
 /// Fills the rows of [`Weights::compute_into`] (all slices sized for `x.len()` particles).
 /// A stencil whose three nodes are consecutive stored nodes — every particle but those
 /// whose stencil crosses the periodic wrap or a fixed grid's end — is stored directly; the
 /// others go through [`Grid::storage_index`].
+/// `parts(x − origin, l_p, 1/h)` is the reference solver's branch-free stencil
+/// (`mpm::stencil`), so the view's weights are exactly those the solver's step uses.
 #[inline(always)]
-fn fill(grid: &Grid, shape: Shape, x: &[f64], widths: &[f64], (nodes, s, d): Rows<'_>) {
-    let (origin, h) = (grid.origin, grid.h);
+fn fill<const ROUND: bool>(
+    grid: &Grid,
+    x: &[f64],
+    widths: &[f64],
+    (nodes, s, d): Rows<'_>,
+    parts: impl Fn(f64, f64, f64) -> stencil::Parts,
+) {
+    let (origin, inv_h) = (grid.origin, 1.0 / grid.h);
     // Storage index of lattice node j is j + shift when it is in range.
     let shift = match grid.boundary {
         Boundary::Periodic => 0,
@@ -268,7 +298,12 @@ fn fill(grid: &Grid, shape: Shape, x: &[f64], widths: &[f64], (nodes, s, d): Row
         .zip(s.chunks_exact_mut(MAX_NODES))
         .zip(d.chunks_exact_mut(MAX_NODES));
     for ((&xp, &lp), ((nodes, s), d)) in x.iter().zip(widths).zip(rows) {
-        let st = shape.stencil(xp - origin, lp, h);
+        let p = parts(xp - origin, lp, inv_h);
+        let st = ParticleStencil {
+            first: p.first as i64,
+            s: p.s,
+            d: p.d,
+        };
         let k0 = st.first.saturating_add(shift);
         if (0..=last_first).contains(&k0) {
             for (k, node) in nodes.iter_mut().enumerate() {

@@ -143,10 +143,11 @@ fn eq45_field_runs_and_its_indices_are_near_one() {
         assert!((0.9..=1.1).contains(&r.index), "{r:?}");
         if r.case != 2 {
             let p = find(&phase, r.case, r.ppc, r.cells);
-            assert!(
-                ((r.error_norm / p.error_norm) / ratio - 1.0).abs() < 1e-9,
-                "{r:?}"
-            );
+            // Equal to round-off: the largest deviation, 1.2·10⁻⁹, is case 5 (a second
+            // derivative through `D`, whose entries are O(1/h)) at 160 cells and one
+            // particle per cell.
+            let deviation = (r.error_norm / p.error_norm) / ratio - 1.0;
+            assert!(deviation.abs() < 1e-8, "{r:?}: deviation {deviation:e}");
         }
     }
 }

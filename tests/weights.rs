@@ -135,25 +135,18 @@ proptest! {
         }
     }
 
+    /// `compute_into` a reused buffer gives `compute`'s bits, and both agree with
+    /// `Shape::stencil` to round-off node by node (they are the solver's branch-free forms,
+    /// `mpm::stencil`; near a cell boundary the two may pick different first nodes, the
+    /// extra node then carrying a round-off weight).
     #[test]
-    fn computed_weights_are_shape_stencils_bit_for_bit(
+    fn computed_weights_are_shape_stencils_to_round_off(
         cases in prop::collection::vec(case(), 1..4),
     ) {
         // One buffer reused across grids, shapes and particle counts.
         let mut reused = Weights::new(0, 0);
         for (grid, xs, ws) in cases {
             for shape in [Shape::Gimp, Shape::Linear] {
-                let mut expected = Weights::new(grid.n_nodes(), MAX_NODES);
-                for (&x, &l) in xs.iter().zip(&ws) {
-                    let st = shape.stencil(x - grid.origin, l, grid.h);
-                    let row: Vec<_> = (0..MAX_NODES)
-                        .map(|k| match grid.storage_index(st.first + k as i64) {
-                            Some(i) => (i, st.s[k], st.d[k]),
-                            None => (0, 0.0, 0.0),
-                        })
-                        .collect();
-                    expected.push_row(&row).unwrap();
-                }
                 let bits = |w: &Weights| -> Vec<(usize, u64, u64)> {
                     (0..w.n_particles())
                         .flat_map(|p| w.row(p).map(|(i, s, d)| (i, s.to_bits(), d.to_bits())).collect::<Vec<_>>())
@@ -161,11 +154,29 @@ proptest! {
                 };
                 let computed = Weights::compute(&grid, shape, &xs, &ws);
                 reused.compute_into(&grid, shape, &xs, &ws);
-                prop_assert_eq!(computed.n_nodes(), expected.n_nodes());
-                prop_assert_eq!(reused.n_nodes(), expected.n_nodes());
+                prop_assert_eq!(computed.n_nodes(), grid.n_nodes());
+                prop_assert_eq!(reused.n_nodes(), grid.n_nodes());
                 prop_assert_eq!(reused.width(), MAX_NODES);
-                prop_assert_eq!(bits(&computed), bits(&expected));
-                prop_assert_eq!(bits(&reused), bits(&expected));
+                prop_assert_eq!(bits(&reused), bits(&computed));
+                for (p, (&x, &l)) in xs.iter().zip(&ws).enumerate() {
+                    let st = shape.stencil(x - grid.origin, l, grid.h);
+                    let mut expected = vec![(0.0, 0.0); grid.n_nodes()];
+                    for k in 0..MAX_NODES {
+                        if let Some(i) = grid.storage_index(st.first + k as i64) {
+                            expected[i].0 += st.s[k];
+                            expected[i].1 += st.d[k];
+                        }
+                    }
+                    let mut got = vec![(0.0, 0.0); grid.n_nodes()];
+                    for (i, s, d) in computed.row(p) {
+                        got[i].0 += s;
+                        got[i].1 += d;
+                    }
+                    for (i, (e, g)) in expected.iter().zip(&got).enumerate() {
+                        prop_assert!((e.0 - g.0).abs() < 1e-12, "{:?} p={} i={} S {} vs {}", shape, p, i, g.0, e.0);
+                        prop_assert!((e.1 - g.1).abs() < 1e-12 / grid.h.min(l), "{:?} p={} i={} D {} vs {}", shape, p, i, g.1, e.1);
+                    }
+                }
             }
         }
     }

@@ -37,8 +37,9 @@
 mod material;
 mod reference;
 mod setup;
+mod slot_window;
 mod state;
-mod stencil;
+pub(crate) mod stencil;
 mod step;
 
 pub use material::Material;
