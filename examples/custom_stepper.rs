@@ -162,6 +162,7 @@ impl UserMpm {
             node_acceleration: &s.node_a,
             node_active: &s.active,
             nodal_stiffness: None,
+            summary: None,
         }
     }
 }

@@ -38,6 +38,17 @@ impl<T> Recycled<T> {
         self.cell.get_or_init(|| compute(self.spare.take()))
     }
 
+    /// Installs `value` as the computed value (the cell must be empty: after
+    /// [`Self::invalidate`], before any read) and returns the spare storage, for the
+    /// producer to fill next time. Returns `value` back, untouched, if the cell already
+    /// holds a value.
+    pub fn install(&mut self, value: T) -> Result<Option<T>, T> {
+        match self.cell.set(value) {
+            Ok(()) => Ok(self.spare.get_mut().take()),
+            Err(value) => Err(value),
+        }
+    }
+
     /// Whether the value is computed.
     pub fn is_computed(&self) -> bool {
         self.cell.get().is_some()

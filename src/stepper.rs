@@ -20,6 +20,7 @@
 
 use crate::grid::Grid;
 use crate::nodal_stiffness::NodalStiffness;
+use crate::pass_summary::PassSummary;
 use crate::view_weights::ViewWeights;
 
 /// A read-only view of one state of a 1D MPM solver. All slices of particle fields have
@@ -65,6 +66,12 @@ pub struct View<'a> {
     /// [`Stepper::provide_nodal_stiffness`]); `None` makes the stability limit assemble it
     /// from [`View::weights`].
     pub nodal_stiffness: Option<&'a NodalStiffness>,
+    /// Reductions the stepper took in the pass that wrote this state, and its guarantee
+    /// that the state passes the library's checks ([`PassSummary`], asked for through
+    /// [`Stepper::provide_summary`]); `None` makes the limits scan the fields themselves.
+    /// A view built from another with some field replaced (`View { sigma, ..*view }`)
+    /// must set it to `None`: the summary describes the stepper's state, not the new view.
+    pub summary: Option<PassSummary>,
 }
 
 impl View<'_> {
@@ -177,6 +184,14 @@ pub trait Stepper {
     /// does. The controller asks when one of its limits reads it
     /// ([`crate::StepLimit::reads_nodal_stiffness`]). The default does not provide it.
     fn provide_nodal_stiffness(&mut self, on: bool) -> bool {
+        let _ = on;
+        false
+    }
+
+    /// Asks the stepper to attach a [`PassSummary`] ([`View::summary`]) to the states its
+    /// passes compute from now on (`true`) or to stop (`false`); returns whether it does.
+    /// The controller always asks. The default does not provide it.
+    fn provide_summary(&mut self, on: bool) -> bool {
         let _ = on;
         false
     }

@@ -220,6 +220,7 @@ mod tests {
             node_acceleration: a,
             node_active: &[true, true, true],
             nodal_stiffness: None,
+            summary: None,
         }
     }
 

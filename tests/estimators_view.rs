@@ -101,6 +101,7 @@ impl State {
             node_acceleration: &self.node_acceleration,
             node_active: &self.node_active,
             nodal_stiffness: None,
+            summary: None,
         }
     }
 

@@ -223,13 +223,7 @@ pub fn total_energy(view: &View<'_>) -> f64 {
         &view.volume0[..n],
         &view.tangent_modulus[..n],
     );
-    // `E_t ≤ 0` divides by +∞ instead: the select comes before the division, so the loop
-    // has no branch (a non-finite `σ` then gives a non-finite energy, as it should).
-    #[inline(always)]
-    fn particle(m: f64, v: f64, s: f64, f: f64, v0: f64, et: f64) -> f64 {
-        let et = if et > 0.0 { et } else { f64::INFINITY };
-        0.5 * m * v * v + 0.5 * s * s * f * v0 / et
-    }
+    let particle = particle_energy;
     const L: usize = ENERGY_LANES;
     let mut lanes = [0.0; L];
     let chunks = m
@@ -250,11 +244,33 @@ pub fn total_energy(view: &View<'_>) -> f64 {
     for (l, p) in (full..n).enumerate() {
         lanes[l] += particle(m[p], v[p], s[p], f[p], v0[p], et[p]);
     }
-    lanes.iter().sum()
+    sum_energy_lanes(lanes)
 }
 
-/// Independent accumulators of [`total_energy`].
-const ENERGY_LANES: usize = 4;
+/// [`total_energy`] of a view: the stepper's, when its pass took it
+/// ([`crate::PassSummary::total_energy`], the same bits), else summed here.
+fn energy_of(view: &View<'_>) -> f64 {
+    view.summary
+        .map_or_else(|| total_energy(view), |s| s.total_energy)
+}
+
+/// Independent accumulators of [`total_energy`]: particle `p` goes to lane `p mod 4`.
+pub(crate) const ENERGY_LANES: usize = 4;
+
+/// One particle's term of [`total_energy`], `½ m v² + ½ σ² F V⁰ / E_t`. `E_t ≤ 0` divides by
+/// +∞ instead: the select comes before the division, so a loop over it has no branch (a
+/// non-finite `σ` then gives a non-finite energy, as it should).
+#[inline(always)]
+pub(crate) fn particle_energy(m: f64, v: f64, s: f64, f: f64, v0: f64, et: f64) -> f64 {
+    let et = if et > 0.0 { et } else { f64::INFINITY };
+    0.5 * m * v * v + 0.5 * s * s * f * v0 / et
+}
+
+/// The lanes of [`total_energy`] combined, in lane order.
+#[inline(always)]
+pub(crate) fn sum_energy_lanes(lanes: [f64; ENERGY_LANES]) -> f64 {
+    lanes.iter().sum()
+}
 
 impl GrowthMonitor {
     /// A monitor with the given settings (validated).
@@ -271,7 +287,7 @@ impl GrowthMonitor {
     pub fn indicator(&self, view: &View<'_>) -> f64 {
         match self.config.indicator {
             GrowthIndicator::Checkerboard => checkerboard_share(view),
-            GrowthIndicator::Energy => total_energy(view),
+            GrowthIndicator::Energy => energy_of(view),
         }
     }
 
@@ -306,7 +322,7 @@ impl GrowthMonitor {
     /// The state's total energy when the checkerboard indicator is confirmed by it.
     fn confirming_energy(&self, view: &View<'_>) -> Option<f64> {
         (self.config.indicator == GrowthIndicator::Checkerboard && self.config.energy_confirm > 0.0)
-            .then(|| total_energy(view))
+            .then(|| energy_of(view))
     }
 
     /// Whether the window maxima show growth.

@@ -51,6 +51,7 @@ pub use filter::{FilterPreset, SoderlindFilter, DSM_FLOOR};
 pub use growth::{
     checkerboard_share, total_energy, GrowthConfig, GrowthIndicator, GrowthMonitor, GROWTH,
 };
+pub(crate) use growth::{particle_energy, sum_energy_lanes, ENERGY_LANES};
 pub use scaled::SafetyScaled;
 pub use stats::Stats;
 pub use temporal_error::{TemporalError, TemporalErrorConfig, TEMPORAL_ERROR};
@@ -388,6 +389,8 @@ impl Controller {
             // Cheap to repeat: a stepper that already provides it just keeps its flag.
             stepper.provide_nodal_stiffness(true);
         }
+        // The same for the pass summary (`crate::pass_summary`).
+        stepper.provide_summary(true);
         let mut decisions: Vec<Decision> = Vec::new();
         let mut retry_cap: Option<f64> = None;
         let mut rejections: u32 = 0;
@@ -511,7 +514,12 @@ impl Controller {
                             source: StepError::NoTrial,
                         });
                     };
-                    if let Some((field, index, value)) = first_nonfinite(&after) {
+                    // A summary is the stepper's guarantee that the trial is finite.
+                    let nonfinite = match after.summary {
+                        Some(_) => None,
+                        None => first_nonfinite(&after),
+                    };
+                    if let Some((field, index, value)) = nonfinite {
                         cause = Some(RejectCause::NonFinite);
                         rejected_by = Some("state".to_string());
                         message = Some(format!(

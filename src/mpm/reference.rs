@@ -59,6 +59,8 @@ pub struct ReferenceStepper {
     /// Whether the particle pass accumulates the nodal stiffness
     /// ([`Stepper::provide_nodal_stiffness`]).
     stiffness: bool,
+    /// Whether the particle pass takes the states' summaries ([`Stepper::provide_summary`]).
+    summary: bool,
 }
 
 impl ReferenceStepper {
@@ -100,6 +102,7 @@ impl ReferenceStepper {
                 width: &width,
                 threshold,
                 stiffness: false,
+                summary: false,
             };
             deposit_state(&ctx, &mut workspace, &mut committed);
         }
@@ -124,6 +127,7 @@ impl ReferenceStepper {
             trial_pending: false,
             workspace,
             stiffness: false,
+            summary: false,
         })
     }
 
@@ -243,6 +247,11 @@ impl ReferenceStepper {
 
     /// The kernel's view of the run's constants.
     fn ctx(&self, stiffness: bool) -> Ctx<'_> {
+        self.ctx_with(stiffness, false)
+    }
+
+    /// [`Self::ctx`], with the pass summary on or off.
+    fn ctx_with(&self, stiffness: bool, summary: bool) -> Ctx<'_> {
         Ctx {
             grid: &self.grid,
             shape: self.shape,
@@ -252,6 +261,7 @@ impl ReferenceStepper {
             width: &self.width,
             threshold: self.threshold,
             stiffness,
+            summary,
         }
     }
 
@@ -274,6 +284,7 @@ impl ReferenceStepper {
             node_acceleration: &s.node_acceleration,
             node_active: s.node_active(&self.grid, self.threshold),
             nodal_stiffness: s.stiffness_valid.then_some(&s.stiffness),
+            summary: s.summary,
         }
     }
 }
@@ -300,7 +311,7 @@ impl Stepper for ReferenceStepper {
             std::mem::take(&mut self.trial),
         );
         let result = advance(
-            &self.ctx(self.stiffness),
+            &self.ctx_with(self.stiffness, self.summary),
             &mut workspace,
             &self.committed,
             &mut trial,
@@ -370,6 +381,16 @@ impl Stepper for ReferenceStepper {
     /// stencils the deposit evaluates anyway). Switching it on also computes it for the
     /// committed state, by the set-up deposit, whose nodal sums are bit-identical to the
     /// step's (the checkpoint restart relies on the same fact).
+    /// Takes the summary's reductions in the particle pass (a few vectorised operations per
+    /// particle) and writes the trial's tangent moduli, densities and node flags there
+    /// instead of in the lazy passes of its view. The reference pass refuses non-finite
+    /// `x`, `v`, `σ`, `F` and `F ≤ 0`, and the set-up checked `V⁰` and `m_p`; the summary is
+    /// attached only if every `E_t`, `ρ` is positive and finite and the nodes pass too.
+    fn provide_summary(&mut self, on: bool) -> bool {
+        self.summary = on;
+        true
+    }
+
     fn provide_nodal_stiffness(&mut self, on: bool) -> bool {
         self.stiffness = on;
         if on && !self.committed.stiffness_valid {

@@ -10,6 +10,7 @@
 use super::material::Material;
 use crate::grid::Grid;
 use crate::nodal_stiffness::NodalStiffness;
+use crate::pass_summary::PassSummary;
 use crate::recycled::{refill, Recycled};
 use crate::view_weights::WeightsCache;
 
@@ -31,6 +32,8 @@ pub(crate) struct State {
     /// accumulated it.
     pub stiffness: NodalStiffness,
     pub stiffness_valid: bool,
+    /// The pass's [`PassSummary`] of this state, when the pass that wrote it took one.
+    pub summary: Option<PassSummary>,
     tangent_modulus: Recycled<Vec<f64>>,
     density: Recycled<Vec<f64>>,
     node_active: Recycled<Vec<bool>>,
@@ -53,10 +56,29 @@ impl State {
 
     /// Drops the lazily computed data (call before overwriting the fields).
     pub fn invalidate(&mut self) {
+        self.summary = None;
         self.weights.invalidate();
         self.tangent_modulus.invalidate();
         self.density.invalidate();
         self.node_active.invalidate();
+    }
+
+    /// Installs the per-particle tangent moduli, densities and node flags that the pass
+    /// computed for this state (freshly invalidated), and returns the spare storage of each
+    /// for the next pass. A cell that is already computed keeps its value (and its buffer
+    /// is handed back).
+    pub fn install_observed(&mut self, observed: Observed) -> Observed {
+        fn back<T>(r: Result<Option<Vec<T>>, Vec<T>>) -> Vec<T> {
+            match r {
+                Ok(spare) => spare.unwrap_or_default(),
+                Err(unused) => unused,
+            }
+        }
+        Observed {
+            tangent_modulus: back(self.tangent_modulus.install(observed.tangent_modulus)),
+            density: back(self.density.install(observed.density)),
+            node_active: back(self.node_active.install(observed.node_active)),
+        }
     }
 
     /// `E_t(F_p)` per particle.
@@ -96,4 +118,16 @@ impl State {
 #[inline]
 pub(crate) fn is_active(grid: &Grid, i: usize, m: f64, threshold: f64) -> bool {
     m > threshold && !grid.is_constrained(i)
+}
+
+/// Per-particle and per-node data that observers read and a pass with a summary fills
+/// directly (the same values the lazy cells of [`State`] compute), or the buffers to fill.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Observed {
+    /// `E_t(F_p)`, as [`State::tangent_modulus`].
+    pub tangent_modulus: Vec<f64>,
+    /// `m_p/(F_p V_p⁰)`, as [`State::density`].
+    pub density: Vec<f64>,
+    /// As [`State::node_active`].
+    pub node_active: Vec<bool>,
 }

@@ -80,9 +80,11 @@
 
 use super::material::Material;
 use super::slot_window::SlotWindow;
-use super::state::{is_active, State};
+use super::state::{is_active, Observed, State};
 use super::stencil;
+use crate::controller::{particle_energy, sum_energy_lanes, ENERGY_LANES};
 use crate::grid::{Boundary, Grid};
+use crate::pass_summary::PassSummary;
 use crate::shape::{Shape, MAX_NODES};
 
 /// Constants of a run that the kernel reads.
@@ -98,6 +100,9 @@ pub(crate) struct Ctx<'a> {
     /// Whether the deposit also accumulates the nodal stiffness `K_N` (eq 56 via
     /// [`crate::NodalStiffness`]) of the new state.
     pub stiffness: bool,
+    /// Whether the pass also takes the [`crate::PassSummary`] of the new state and fills its
+    /// tangent moduli, densities and node flags (`pass_summary.rs`).
+    pub summary: bool,
 }
 
 /// Scratch arrays on the extended lattice, allocated once per solver.
@@ -111,6 +116,9 @@ pub(crate) struct Workspace {
     /// `(K_N(j, j), K_N(j, j+1), K_N(j, j+2), 0)` accumulated by the deposit when
     /// [`Ctx::stiffness`] is set (zero otherwise).
     band: Vec<[f64; 4]>,
+    /// Buffers the pass fills with the trial's observed data when [`Ctx::summary`] is set,
+    /// swapped with the trial's spare storage afterwards (no allocation in a run).
+    observed: Observed,
 }
 
 impl Workspace {
@@ -120,6 +128,7 @@ impl Workspace {
             gather: vec![[0.0; 2]; n],
             acc: vec![[0.0; 4]; n],
             band: vec![[0.0; 4]; n],
+            observed: Observed::default(),
         }
     }
 }
@@ -264,8 +273,15 @@ fn finalize_band(ctx: &Ctx<'_>, band: &mut [[f64; 4]], c2_ref: f64, to: &mut Sta
 
 /// Folds the accumulators onto the stored nodes, computes `m_i`, `v_i = p_i/m_i`,
 /// `a_i = f_i/m_i` (zero at inactive and constrained nodes) and leaves the accumulators
-/// zeroed for the next deposit, in one pass over the nodes.
-fn finalize(ctx: &Ctx<'_>, acc: &mut [[f64; 4]], to: &mut State) {
+/// zeroed for the next deposit, in one pass over the nodes. With `flags`, also writes each
+/// node's activity there and returns whether the summary's node checks hold (some node
+/// active, every active mass finite); without, returns `false`.
+fn finalize(
+    ctx: &Ctx<'_>,
+    acc: &mut [[f64; 4]],
+    to: &mut State,
+    flags: Option<&mut Vec<bool>>,
+) -> bool {
     let grid = ctx.grid;
     let n_nodes = grid.n_nodes();
     let offset = fold_images(grid, acc);
@@ -274,10 +290,16 @@ fn finalize(ctx: &Ctx<'_>, acc: &mut [[f64; 4]], to: &mut State) {
         .iter_mut()
         .zip(to.node_velocity.iter_mut())
         .zip(to.node_acceleration.iter_mut());
+    let (mut any_active, mut all_finite) = (false, true);
+    let mut flags = flags.map(|f| {
+        f.clear();
+        f
+    });
     for (i, (((m, v), a), slot)) in nodes.zip(&mut acc[offset..offset + n_nodes]).enumerate() {
         let [mi, pi, fi, _] = std::mem::take(slot);
         *m = mi;
-        if is_active(grid, i, mi, ctx.threshold) {
+        let active = is_active(grid, i, mi, ctx.threshold);
+        if active {
             let inv = 1.0 / mi;
             *v = pi * inv;
             *a = fi * inv;
@@ -285,7 +307,13 @@ fn finalize(ctx: &Ctx<'_>, acc: &mut [[f64; 4]], to: &mut State) {
             *v = 0.0;
             *a = 0.0;
         }
+        if let Some(f) = flags.as_mut() {
+            f.push(active);
+            any_active |= active;
+            all_finite &= !active || mi.is_finite();
+        }
     }
+    flags.is_some() && any_active && all_finite
 }
 
 /// Computes the nodal arrays of `state` from its particle fields (eqs 7, 17, 18): used
@@ -311,7 +339,7 @@ pub(crate) fn deposit_state(ctx: &Ctx<'_>, ws: &mut Workspace, state: &mut State
         }
     }
     acc_window.flush(&mut ws.acc);
-    finalize(ctx, &mut ws.acc, state);
+    finalize(ctx, &mut ws.acc, state, None);
     finalize_band(ctx, &mut ws.band, c2_ref, state);
 }
 
@@ -350,8 +378,15 @@ pub(crate) fn advance(
     }
 
     // 3. Grid finalize of the trial state.
-    finalize(ctx, &mut ws.acc, to);
+    let node_flags = ctx.summary.then_some(&mut ws.observed.node_active);
+    let nodes_ok = finalize(ctx, &mut ws.acc, to, node_flags);
     finalize_band(ctx, &mut ws.band, flags.c2_ref, to);
+    to.summary = None;
+    if let Some(parts) = flags.summary {
+        let observed = std::mem::take(&mut ws.observed);
+        ws.observed = to.install_observed(observed);
+        to.summary = (parts.ok && nodes_ok).then_some(parts.summary);
+    }
     Ok(())
 }
 
@@ -482,6 +517,10 @@ impl<const GIMP: bool, const ROUND: bool> Stencil for Fixed<GIMP, ROUND> {
 
 /// Particles per block of the particle pass (see `particle_pass`).
 const BLOCK: usize = 256;
+const _: () = assert!(
+    BLOCK % ENERGY_LANES == 0,
+    "summary lanes must follow p mod 4"
+);
 
 /// Outcome flags of a particle pass.
 struct PassFlags {
@@ -492,6 +531,48 @@ struct PassFlags {
     first_out: Option<usize>,
     /// `max_p E_t,p/ρ_p` of the trial when the stiffness is accumulated (else 0).
     c2_ref: f64,
+    /// The trial's summary when [`Ctx::summary`] is set.
+    summary: Option<SummaryParts>,
+}
+
+/// What the pass found for the [`PassSummary`]: the reductions, and whether every particle's
+/// `E_t` and `ρ` are positive and finite (the other particle checks are the pass's own
+/// failure flags; the node checks come from [`finalize`]).
+struct SummaryParts {
+    summary: PassSummary,
+    ok: bool,
+}
+
+/// The summary's running reductions in the pass, particle `p` in lane `p mod 4` (the energy
+/// lanes of [`crate::controller::total_energy`], so the same bits).
+struct SummaryLanes {
+    c2: [f64; ENERGY_LANES],
+    speed: [f64; ENERGY_LANES],
+    energy: [f64; ENERGY_LANES],
+    ok: bool,
+}
+
+impl SummaryLanes {
+    fn new() -> Self {
+        Self {
+            c2: [0.0; ENERGY_LANES],
+            speed: [0.0; ENERGY_LANES],
+            energy: [0.0; ENERGY_LANES],
+            ok: true,
+        }
+    }
+
+    fn finish(self) -> SummaryParts {
+        let max = |l: [f64; ENERGY_LANES]| l.iter().fold(0.0_f64, |a, &b| a.max(b));
+        SummaryParts {
+            summary: PassSummary {
+                max_wave_speed_sq: max(self.c2),
+                max_speed: max(self.speed),
+                total_energy: sum_energy_lanes(self.energy),
+            },
+            ok: self.ok,
+        }
+    }
 }
 
 /// The stencils of one block in structure-of-arrays form, so that evaluating them is a
@@ -599,11 +680,21 @@ where
     let acc = ws.acc.as_mut_slice();
     let band = ws.band.as_mut_slice();
     let (stiffness, material) = (ctx.stiffness, ctx.material);
+    let n = from.x.len();
+    // The trial's tangent moduli and densities, written here when a summary is asked for.
+    let (et_out, rho_out) = if ctx.summary {
+        let o = &mut ws.observed;
+        o.tangent_modulus.resize(n, 0.0);
+        o.density.resize(n, 0.0);
+        (&mut o.tangent_modulus[..n], &mut o.density[..n])
+    } else {
+        (&mut [][..], &mut [][..])
+    };
+    let mut summary = ctx.summary.then(SummaryLanes::new);
     // From the slice lengths (both `ext_len`), so that the compiler sees every
     // `base..base + MAX_NODES` in bounds.
     let max_base = (gather.len().min(acc.len()).min(band.len()) - MAX_NODES) as i64;
 
-    let n = from.x.len();
     let (x0, v0, s0, f0) = (&from.x[..n], &from.v[..n], &from.sigma[..n], &from.f[..n]);
     let (mass, vol0, width) = (&ctx.mass[..n], &ctx.volume0[..n], &ctx.width[..n]);
     let (x1, v1, s1, f1) = (
@@ -691,6 +782,23 @@ where
             }
         }
 
+        // The summary (pass_summary.rs), vectorised: `E_t` and `ρ` as the state's lazy cells
+        // compute them, particle `start + i` in lane `i mod 4` (`BLOCK` is a multiple of 4).
+        if let Some(lanes) = summary.as_mut() {
+            let (et_out, rho_out) = (&mut et_out[start..end], &mut rho_out[start..end]);
+            for i in 0..len {
+                let et = material.tangent_modulus(f1[i]);
+                let rho = mass[i] / (f1[i] * vol0[i]);
+                et_out[i] = et;
+                rho_out[i] = rho;
+                let l = i % ENERGY_LANES;
+                lanes.c2[l] = lanes.c2[l].max(et / rho);
+                lanes.speed[l] = lanes.speed[l].max(v1[i].abs());
+                lanes.energy[l] += particle_energy(mass[i], v1[i], s1[i], f1[i], vol0[i], et);
+                lanes.ok &= et > 0.0 && et < f64::INFINITY && rho > 0.0 && rho < f64::INFINITY;
+            }
+        }
+
         // Deposit at xⁿ⁺¹ (eqs 6, 7, 17) from the just-written, cache-hot trial fields.
         // Out-of-domain or non-finite particles deposit on clamped slots: harmless,
         // because such a trial is refused before finalizing.
@@ -748,5 +856,6 @@ where
         first_inverted,
         first_out,
         c2_ref,
+        summary: summary.map(SummaryLanes::finish),
     }
 }

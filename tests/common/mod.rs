@@ -233,6 +233,7 @@ fn view_of<'a>(s: &'a State, grid: &'a Grid, m: &'a MockStepper) -> View<'a> {
         node_acceleration: &s.node_a,
         node_active: &s.node_active,
         nodal_stiffness: None,
+        summary: None,
     }
 }
 

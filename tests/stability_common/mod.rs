@@ -111,6 +111,7 @@ impl Fixture {
             node_acceleration: &self.node_acceleration,
             node_active: &self.node_active,
             nodal_stiffness: self.stiffness.as_ref(),
+            summary: None,
         }
     }
 }

@@ -1,0 +1,41 @@
+//! [`PassSummary`]: what a stepper checked and measured while its own pass wrote a state.
+//!
+//! Every limit reads every view, and three of them would otherwise each make a pass over
+//! the particles for a handful of reductions: the stability module validates the fields
+//! and takes `max_p E_t,p/ρ_p` and `max_p |v_p|` (the sound-speed limit, eq 49), the growth
+//! monitor sums the total energy, and the controller looks for a non-finite value in the
+//! trial. A solver's step already touches every particle once; it can take the same
+//! reductions there, in registers, for a few operations per particle (measured: README
+//! "Controller overhead"). A stepper that does so attaches a `PassSummary` to the views of
+//! the states its passes wrote ([`crate::View::summary`]), when the controller asks
+//! ([`crate::Stepper::provide_summary`]); the limits then skip their scans.
+//!
+//! **The contract.** `Some(summary)` on a view is the stepper's guarantee that the view
+//! passes the checks of the stability module — finite `x`, `v`, `σ`; positive finite `F`,
+//! `V⁰`, `m_p`, `E_t`, `ρ`; positive finite mass at every active node; at least one active
+//! node — and that the three numbers are what the library would compute from the view:
+//!
+//! ```text
+//! max_wave_speed_sq = max_p E_t,p / ρ_p      (E_t and ρ the view's own fields, one division)
+//! max_speed         = max_p |v_p|
+//! total_energy      = controller::total_energy(view)   (the same lanes, the same bits)
+//! ```
+//!
+//! The maxima do not depend on the order of the particles, so a stepper computes them in
+//! any order; the energy must follow [`crate::controller::total_energy`]'s grouping (particle
+//! `p` in lane `p mod 4`, lanes added in order) to give the same bits. A stepper that cannot
+//! guarantee all of it leaves the summary out; the limits then check the view themselves.
+
+use serde::{Deserialize, Serialize};
+
+/// Reductions over one state's particles taken by the stepper's pass (module docs).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PassSummary {
+    /// `max_p E_t,p/ρ_p`, the squared largest wave speed \[length²/time²\].
+    pub max_wave_speed_sq: f64,
+    /// `max_p |v_p|` \[length/time\].
+    pub max_speed: f64,
+    /// Kinetic plus stored energy, `Σ_p ½ m_p v_p² + ½ σ_p² F_p V_p⁰ / E_t,p`, summed as
+    /// [`crate::controller::total_energy`] sums it.
+    pub total_energy: f64,
+}
