@@ -14,10 +14,13 @@
 //!
 //! Groups:
 //! - `controller_step/{bare,controlled}/N`: `try_step + accept` at the controller's last
-//!   step (without the nodal stiffness accumulation, which only the controller asks for)
+//!   step (without the nodal stiffness accumulation and the pass summary, which only the
+//!   controller asks for)
 //!   versus `Controller::step` (the stepper's pass with `K_N`, every limit's `propose`, the
 //!   trial, every limit's `judge`, the accept and the limits' `accepted` hooks). Throughput is in particles. The
-//!   overhead ratio is `controlled / bare`. `bare_with_view` adds building the trial's
+//!   overhead ratio is `controlled / bare`. `controlled_without_summary` is the same
+//!   controller on the solver declining the pass summary (`Stepper::provide_summary`), so
+//!   that every limit scans its views, as a stepper without one. `bare_with_view` adds building the trial's
 //!   `View` (lazily computed `S`, `D`, tangent modulus, density, node activity), which any
 //!   limit that reads the trial forces.
 //! - `limit_propose/NAME` and `limit_judge/NAME` at 10⁵ particles: each limit's share of
@@ -73,6 +76,37 @@ fn sound_speed_cap() -> SoundSpeed {
     }
 }
 
+/// The reference solver declining the pass summary (`Stepper::provide_summary`), so that
+/// every limit scans its views: the summary's net effect, measured in the same run.
+struct WithoutSummary(ReferenceStepper);
+
+impl Stepper for WithoutSummary {
+    fn time(&self) -> f64 {
+        self.0.time()
+    }
+    fn step_count(&self) -> u64 {
+        self.0.step_count()
+    }
+    fn try_step(&mut self, dt: f64) -> Result<(), mpm_dt::StepError> {
+        self.0.try_step(dt)
+    }
+    fn accept(&mut self) -> Result<(), mpm_dt::StepError> {
+        self.0.accept()
+    }
+    fn reject(&mut self) {
+        self.0.reject()
+    }
+    fn view(&self) -> mpm_dt::View<'_> {
+        self.0.view()
+    }
+    fn trial_view(&self) -> Option<mpm_dt::View<'_>> {
+        self.0.trial_view()
+    }
+    fn provide_nodal_stiffness(&mut self, on: bool) -> bool {
+        self.0.provide_nodal_stiffness(on)
+    }
+}
+
 /// The standard controller with its default configuration (what `examples/compare.rs` runs).
 fn controller() -> Controller {
     match Controller::standard(ControllerConfig::default()) {
@@ -102,10 +136,29 @@ fn bench_overhead(c: &mut Criterion) {
                 Err(e) => panic!("controller failed: {e}"),
             })
         });
+        {
+            let mut w = WithoutSummary(stepper(particles));
+            let mut ctl = controller();
+            for _ in 0..6 {
+                if let Err(e) = ctl.step(&mut w, f64::INFINITY) {
+                    panic!("controller failed: {e}");
+                }
+            }
+            group.bench_function(
+                BenchmarkId::new("controlled_without_summary", particles),
+                |b| {
+                    b.iter(|| match ctl.step(&mut w, f64::INFINITY) {
+                        Ok(d) => black_box(d),
+                        Err(e) => panic!("controller failed: {e}"),
+                    })
+                },
+            );
+        }
         let dt = ctl.state().dt_prev.unwrap_or(0.5 * s.grid().h);
-        // The bare step without the nodal stiffness the controller asked the stepper to
-        // accumulate: the overhead counts it.
+        // The bare step without the nodal stiffness and the pass summary the controller
+        // asked the stepper for: the overhead counts them.
         s.provide_nodal_stiffness(false);
+        s.provide_summary(false);
         group.bench_function(BenchmarkId::new("bare", particles), |b| {
             b.iter(|| {
                 if let Err(e) = s.try_step(black_box(dt)).and_then(|()| s.accept()) {

@@ -192,8 +192,8 @@ fn deposit(
 
 /// A particle's weight in `K_N`, `k = E_t(F) F V⁰`, and its `E_t/ρ = k/m` (for `c²_ref`).
 #[inline(always)]
-fn stiffness_weight(material: Material, f: f64, volume0: f64, mass: f64) -> (f64, f64) {
-    let k = material.tangent_modulus(f) * f * volume0;
+fn stiffness_weight(tangent: f64, f: f64, volume0: f64, mass: f64) -> (f64, f64) {
+    let k = tangent * f * volume0;
     (k, k / mass)
 }
 
@@ -291,10 +291,10 @@ fn finalize(
         .zip(to.node_velocity.iter_mut())
         .zip(to.node_acceleration.iter_mut());
     let (mut any_active, mut all_finite) = (false, true);
-    let mut flags = flags.map(|f| {
+    let mut flags = flags;
+    if let Some(f) = flags.as_mut() {
         f.clear();
-        f
-    });
+    }
     for (i, (((m, v), a), slot)) in nodes.zip(&mut acc[offset..offset + n_nodes]).enumerate() {
         let [mi, pi, fi, _] = std::mem::take(slot);
         *m = mi;
@@ -333,7 +333,8 @@ pub(crate) fn deposit_state(ctx: &Ctx<'_>, ws: &mut Workspace, state: &mut State
         let slots = acc_window.at(&mut ws.acc, base);
         deposit(slots, &st.s, &st.d, m, m * state.v[p], sfv);
         if ctx.stiffness {
-            let (k, c2) = stiffness_weight(ctx.material, state.f[p], ctx.volume0[p], m);
+            let f = state.f[p];
+            let (k, c2) = stiffness_weight(ctx.material.tangent_modulus(f), f, ctx.volume0[p], m);
             c2_ref = c2_ref.max(c2);
             deposit_band(band_slots(&mut ws.band, base), &st.d, k);
         }
@@ -518,7 +519,7 @@ impl<const GIMP: bool, const ROUND: bool> Stencil for Fixed<GIMP, ROUND> {
 /// Particles per block of the particle pass (see `particle_pass`).
 const BLOCK: usize = 256;
 const _: () = assert!(
-    BLOCK % ENERGY_LANES == 0,
+    BLOCK.is_multiple_of(ENERGY_LANES),
     "summary lanes must follow p mod 4"
 );
 
@@ -552,6 +553,26 @@ struct SummaryLanes {
     ok: bool,
 }
 
+/// `x` if `x > acc`, else `acc`: `f64::max` for values without NaN, as one vector select.
+#[inline(always)]
+fn greater(x: f64, acc: f64) -> f64 {
+    if x > acc {
+        x
+    } else {
+        acc
+    }
+}
+
+/// `x` if `x < acc`, else `acc`.
+#[inline(always)]
+fn smaller(x: f64, acc: f64) -> f64 {
+    if x < acc {
+        x
+    } else {
+        acc
+    }
+}
+
 impl SummaryLanes {
     fn new() -> Self {
         Self {
@@ -560,6 +581,82 @@ impl SummaryLanes {
             energy: [0.0; ENERGY_LANES],
             ok: true,
         }
+    }
+
+    /// Adds the particles of one block (`E_t`, `ρ` written out), in chunks of
+    /// [`ENERGY_LANES`] with the lanes in locals so that the loop vectorises; the last,
+    /// partial chunk (only in the last block) goes to lanes `0 …` in order, which is still
+    /// lane `p mod 4`.
+    #[inline(always)]
+    fn add(
+        &mut self,
+        tangent: impl Fn(f64) -> f64,
+        (mass, vol0): (&[f64], &[f64]),
+        (v, s, f): (&[f64], &[f64], &[f64]),
+        (et_out, rho_out): (&mut [f64], &mut [f64]),
+    ) {
+        const L: usize = ENERGY_LANES;
+        let (mut c2, mut speed, mut energy) = (self.c2, self.speed, self.energy);
+        // Positive finite `E_t`, `ρ` ⇔ `0·x = 0` (finite) and `x > 0`: lane minima and sums.
+        let (mut zero, mut lo) = ([0.0_f64; L], [f64::INFINITY; L]);
+        let n = mass
+            .len()
+            .min(vol0.len())
+            .min(v.len())
+            .min(s.len())
+            .min(f.len());
+        let n = n.min(et_out.len()).min(rho_out.len());
+        let full = n - n % L;
+        // Two loops over chunks of `L` with the lanes in local arrays, maxima and minima as
+        // selects (`f64::max`'s NaN rule and one loop with all five reductions kept the
+        // compiler from vectorising; closures were not inlined into the AVX2 build at all):
+        // `E_t`, `ρ` and their checks and ratio, then speed and energy. For values without
+        // NaN a select is `f64::max`/`min`; a NaN `E_t` or `ρ` fails the checks anyway.
+        for (((m, v0), f), (et, rho)) in mass[..full]
+            .chunks_exact(L)
+            .zip(vol0[..full].chunks_exact(L))
+            .zip(f[..full].chunks_exact(L))
+            .zip(
+                et_out[..full]
+                    .chunks_exact_mut(L)
+                    .zip(rho_out[..full].chunks_exact_mut(L)),
+            )
+        {
+            for l in 0..L {
+                et[l] = tangent(f[l]);
+                rho[l] = m[l] / (f[l] * v0[l]);
+                c2[l] = greater(et[l] / rho[l], c2[l]);
+                zero[l] += et[l] * 0.0 + rho[l] * 0.0;
+                lo[l] = smaller(smaller(et[l], rho[l]), lo[l]);
+            }
+        }
+        for ((((m, v0), v), (s, f)), et) in mass[..full]
+            .chunks_exact(L)
+            .zip(vol0[..full].chunks_exact(L))
+            .zip(v[..full].chunks_exact(L))
+            .zip(s[..full].chunks_exact(L).zip(f[..full].chunks_exact(L)))
+            .zip(et_out[..full].chunks_exact(L))
+        {
+            for l in 0..L {
+                speed[l] = greater(v[l].abs(), speed[l]);
+                energy[l] += particle_energy(m[l], v[l], s[l], f[l], v0[l], et[l]);
+            }
+        }
+        // The last, partial chunk (last block only): lanes 0, 1, … in order.
+        for (l, p) in (full..n).enumerate() {
+            let et = tangent(f[p]);
+            let rho = mass[p] / (f[p] * vol0[p]);
+            (et_out[p], rho_out[p]) = (et, rho);
+            c2[l] = greater(et / rho, c2[l]);
+            zero[l] += et * 0.0 + rho * 0.0;
+            lo[l] = smaller(smaller(et, rho), lo[l]);
+            speed[l] = greater(v[p].abs(), speed[l]);
+            energy[l] += particle_energy(mass[p], v[p], s[p], f[p], vol0[p], et);
+        }
+        (self.c2, self.speed, self.energy) = (c2, speed, energy);
+        let zero = zero.iter().fold(0.0, |a, &b| a + b);
+        let lo = lo.iter().fold(f64::INFINITY, |a, &b| a.min(b));
+        self.ok &= zero == 0.0 && lo > 0.0;
     }
 
     fn finish(self) -> SummaryParts {
@@ -629,17 +726,31 @@ fn with_material<St, const PERIODIC: bool>(
 where
     St: Stencil,
 {
+    // The tangent moduli repeat `Material::tangent_modulus` operation for operation (the
+    // same bits), without its `match` in the loops, which kept them scalar.
     match ctx.material {
-        Material::LinearElastic { youngs_modulus } => {
-            particle_pass::<_, _, PERIODIC>(ctx, ws, from, to, dt, stencil, |s, _f, dt_l| {
-                s + youngs_modulus * dt_l
-            })
-        }
+        Material::LinearElastic { youngs_modulus } => particle_pass::<_, _, _, PERIODIC>(
+            ctx,
+            ws,
+            from,
+            to,
+            dt,
+            stencil,
+            |s, _f, dt_l| s + youngs_modulus * dt_l,
+            |_f| youngs_modulus,
+        ),
         Material::NeoHookean { youngs_modulus } => {
             let half_e = 0.5 * youngs_modulus;
-            particle_pass::<_, _, PERIODIC>(ctx, ws, from, to, dt, stencil, |_s, f, _dt_l| {
-                half_e * (f - 1.0 / f)
-            })
+            particle_pass::<_, _, _, PERIODIC>(
+                ctx,
+                ws,
+                from,
+                to,
+                dt,
+                stencil,
+                |_s, f, _dt_l| half_e * (f - 1.0 / f),
+                |f| 0.5 * youngs_modulus * (f + 1.0 / f),
+            )
         }
     }
 }
@@ -659,7 +770,8 @@ fn wrap_periodic(mut y: f64, origin: f64, length: f64) -> f64 {
 
 /// The fused particle pass (step 2 of the module docs).
 #[inline(always)]
-fn particle_pass<St, Up, const PERIODIC: bool>(
+#[allow(clippy::too_many_arguments)]
+fn particle_pass<St, Up, Tg, const PERIODIC: bool>(
     ctx: &Ctx<'_>,
     ws: &mut Workspace,
     from: &State,
@@ -667,10 +779,12 @@ fn particle_pass<St, Up, const PERIODIC: bool>(
     dt: f64,
     stencil: St,
     update_stress: Up,
+    tangent: Tg,
 ) -> PassFlags
 where
     St: Stencil,
     Up: Fn(f64, f64, f64) -> f64,
+    Tg: Fn(f64) -> f64 + Copy,
 {
     let grid = ctx.grid;
     let origin = grid.origin;
@@ -679,7 +793,7 @@ where
     let gather = ws.gather.as_slice();
     let acc = ws.acc.as_mut_slice();
     let band = ws.band.as_mut_slice();
-    let (stiffness, material) = (ctx.stiffness, ctx.material);
+    let stiffness = ctx.stiffness;
     let n = from.x.len();
     // The trial's tangent moduli and densities, written here when a summary is asked for.
     let (et_out, rho_out) = if ctx.summary {
@@ -785,18 +899,12 @@ where
         // The summary (pass_summary.rs), vectorised: `E_t` and `ρ` as the state's lazy cells
         // compute them, particle `start + i` in lane `i mod 4` (`BLOCK` is a multiple of 4).
         if let Some(lanes) = summary.as_mut() {
-            let (et_out, rho_out) = (&mut et_out[start..end], &mut rho_out[start..end]);
-            for i in 0..len {
-                let et = material.tangent_modulus(f1[i]);
-                let rho = mass[i] / (f1[i] * vol0[i]);
-                et_out[i] = et;
-                rho_out[i] = rho;
-                let l = i % ENERGY_LANES;
-                lanes.c2[l] = lanes.c2[l].max(et / rho);
-                lanes.speed[l] = lanes.speed[l].max(v1[i].abs());
-                lanes.energy[l] += particle_energy(mass[i], v1[i], s1[i], f1[i], vol0[i], et);
-                lanes.ok &= et > 0.0 && et < f64::INFINITY && rho > 0.0 && rho < f64::INFINITY;
-            }
+            lanes.add(
+                tangent,
+                (&mass[..len], &vol0[..len]),
+                (&v1[..len], &s1[..len], &f1[..len]),
+                (&mut et_out[start..end], &mut rho_out[start..end]),
+            );
         }
 
         // Deposit at xⁿ⁺¹ (eqs 6, 7, 17) from the just-written, cache-hot trial fields.
@@ -809,7 +917,7 @@ where
             // as lane maxima, exact in any order), then both deposits in one loop, so the
             // two chains of read-modify-write adds on neighbouring slots overlap.
             for i in 0..len {
-                let (k, c2) = stiffness_weight(material, f1[i], vol0[i], mass[i]);
+                let (k, c2) = stiffness_weight(tangent(f1[i]), f1[i], vol0[i], mass[i]);
                 k_w[i] = k;
                 c2_lanes[i % 4] = c2_lanes[i % 4].max(c2);
             }

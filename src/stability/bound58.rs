@@ -105,8 +105,17 @@ pub fn bound58(
         if !has_mass[i] {
             continue;
         }
-        let st: Option<Vec<usize>> = (-2..=2).map(|k| neighbour(i, k)).collect();
-        if let Some(st) = st {
+        // The five-node stencil, all with mass (an array: this loop used to allocate a
+        // vector per node, measured in the controller's profile).
+        let mut st = [0usize; 5];
+        let mut complete = true;
+        for (slot, k) in st.iter_mut().zip(-2..=2) {
+            match neighbour(i, k) {
+                Some(j) => *slot = j,
+                None => complete = false,
+            }
+        }
+        if complete {
             let s = |k: usize| sig[st[k]];
             d2[i] = (s(3) - 2.0 * s(2) + s(1)) / (h * h);
             d3[i] = (s(4) - 2.0 * s(3) + 2.0 * s(1) - s(0)) / (2.0 * h * h * h);
