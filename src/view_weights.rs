@@ -23,7 +23,7 @@ use crate::shape::Shape;
 use crate::weights::Weights;
 
 /// Per-state storage for weights computed on first use, reusing the allocation of the
-/// previous state's weights after [`WeightsCache::invalidate`] ([`Recycled`]). A clone keeps
+/// previous state's weights after [`WeightsCache::invalidate`] (`Recycled`, crate-internal). A clone keeps
 /// computed weights but not the spare storage.
 #[derive(Clone, Default)]
 pub struct WeightsCache(Recycled<Weights>);
