@@ -250,3 +250,44 @@ fn hold_band_keeps_small_rises_only() {
     let followed: Vec<f64> = dts(1.0).into_iter().map(|(dt, _)| dt).collect();
     assert_eq!(followed, proposals);
 }
+
+/// A step shortened to land on `t_end` is not held by the next run: with a limit proposing
+/// 1.0e-3 and `dt_min` = 0.98e-3, a first run ending on a 0.97e-3 landing step is followed
+/// by a second run at 1.0e-3 (holding the landing step would fall below `dt_min` and end it
+/// with `StepTooSmall`). Also: a limit tying with `t_end` is not held.
+#[test]
+fn hold_band_skips_landing_steps() {
+    let mut stepper = MockStepper::standing_wave(8, 2, 1.0, 1e-2, Shape::Gimp, 0.3, 5);
+    let config = ControllerConfig {
+        dt_min: 0.98e-3,
+        hold_growth: 1.05,
+        temporal: mpm_dt::controller::TemporalErrorConfig {
+            enabled: false,
+            ..Default::default()
+        },
+        ..ControllerConfig::default()
+    };
+    let limits: Vec<Box<dyn StepLimit>> = vec![Box::new(ScriptedLimit {
+        name: "scripted".into(),
+        proposals: vec![1.0e-3],
+        k: 0,
+    })];
+    let mut controller = Controller::new(config, limits).expect("valid config");
+    let t1 = 5.0e-3 + 0.97e-3;
+    let mut first = Vec::new();
+    controller
+        .run_until(&mut stepper, t1, &mut |d| first.push(d.clone()))
+        .expect("first run");
+    let last = first.last().expect("decisions");
+    assert_eq!(last.binding, bound::T_END);
+    assert!((last.dt - 0.97e-3).abs() < 1e-15, "{}", last.dt);
+    let mut second = Vec::new();
+    controller
+        .run_until(&mut stepper, t1 + 3.0e-3, &mut |d| second.push(d.clone()))
+        .expect("second run: the landing step is not held");
+    assert_eq!(second[0].binding, "scripted");
+    assert_eq!(second[0].dt.to_bits(), 1.0e-3f64.to_bits());
+    // Two steps of 1.0e-3 then a landing step of exactly the proposal: a tie, not a hold.
+    assert_eq!(second.len(), 3);
+    assert!(second.iter().all(|d| d.binding != bound::HOLD));
+}

@@ -18,6 +18,10 @@ pub struct ControllerState {
     pub dt_prev: Option<f64>,
     /// The last accepted step needed retries: the next step may not grow.
     pub no_growth_next: bool,
+    /// The last accepted step was shortened to land on an end time: the hold band
+    /// ([`ControllerConfig::hold_growth`]) does not keep it.
+    #[serde(default)]
+    pub prev_landed: bool,
     /// The Söderlind filter with its history.
     pub filter: SoderlindFilter,
     /// Run statistics.

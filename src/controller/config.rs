@@ -57,7 +57,10 @@ pub struct ControllerConfig {
     /// climb into a saw-tooth (measured on the golden-log scenario). Measured on the
     /// comparison suite (README "Performance"): the error excess over α = 0.4 on uniform
     /// layouts fell from 7–14 % to under 2 %, at 1.70× instead of 1.73× fewer steps.
-    /// Holding can only lower `dt`, never above any bound.
+    /// Holding can only lower `dt`, never above any bound. It is not applied when a
+    /// named bound (filter, `dt_max`, `t_end`, …) ties with the binding proposal, nor to a
+    /// previous step that was shortened to land on an end time (that step may be below
+    /// `dt_min`, and keeping it would be arbitrary).
     pub hold_growth: f64,
     /// Smallest factor by which a rejected step is shrunk for its retry (default 0.1,
     /// `ETAMIN`). Limits' own proposals may still bind below it: dt never exceeds any limit.

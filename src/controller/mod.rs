@@ -222,6 +222,7 @@ impl Controller {
         let state = ControllerState {
             dt_prev: None,
             no_growth_next: false,
+            prev_landed: false,
             filter: SoderlindFilter::new(config.filter, config.order),
             stats: Stats::default(),
             safety_scale: 1.0,
@@ -462,11 +463,14 @@ impl Controller {
                 }
             }
             // 2b. Hold the previous step when a limit's proposal binds and would let it
-            // grow only within the hold band (ControllerConfig::hold_growth). The filter's
-            // proposal is smooth by design and is never held; neither is the step clamped
-            // to t_end.
-            if let Some(prev) = self.state.dt_prev {
-                let by_limit = matches!(binding_of, BoundName::Limit(_));
+            // grow only within the hold band (ControllerConfig::hold_growth). Not when a
+            // named bound (the filter, smooth by design; dt_max; t_end; …) ties with it,
+            // and not a previous step that was shortened to land on an end time.
+            if let (Some(prev), false) = (self.state.dt_prev, self.state.prev_landed) {
+                let by_limit = matches!(binding_of, BoundName::Limit(_))
+                    && !bounds.iter().any(|&(name, b)| {
+                        matches!(name, BoundName::Named(_)) && b.to_bits() == dt.to_bits()
+                    });
                 if by_limit && dt > prev && dt <= self.config.hold_growth * prev {
                     dt = prev;
                     binding_of = BoundName::Named(bound::HOLD);
@@ -607,6 +611,7 @@ impl Controller {
                         }
                     }
                     self.state.dt_prev = Some(dt);
+                    self.state.prev_landed = last_step;
                     self.state.no_growth_next = rejections > 0;
                     decisions.push(decision);
                     return Ok(decisions);

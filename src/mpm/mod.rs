@@ -41,6 +41,7 @@ mod slot_window;
 mod state;
 pub(crate) mod stencil;
 mod step;
+mod summary_lanes;
 
 pub use material::Material;
 pub use reference::{ReferenceStepper, SolverCheckpoint, INACTIVE_MASS_FRACTION};

@@ -377,10 +377,6 @@ impl Stepper for ReferenceStepper {
         self.trial_pending.then(|| self.state_view(&self.trial))
     }
 
-    /// Accumulates `K_N` in the deposit of every step (six products per particle, from the
-    /// stencils the deposit evaluates anyway). Switching it on also computes it for the
-    /// committed state, by the set-up deposit, whose nodal sums are bit-identical to the
-    /// step's (the checkpoint restart relies on the same fact).
     /// Takes the summary's reductions in the particle pass (a few vectorised operations per
     /// particle) and writes the trial's tangent moduli, densities and node flags there
     /// instead of in the lazy passes of its view. The reference pass refuses non-finite
@@ -391,6 +387,10 @@ impl Stepper for ReferenceStepper {
         true
     }
 
+    /// Accumulates `K_N` in the deposit of every step (six products per particle, from the
+    /// stencils the deposit evaluates anyway). Switching it on also computes it for the
+    /// committed state, by the set-up deposit, whose nodal sums are bit-identical to the
+    /// step's (the checkpoint restart relies on the same fact).
     fn provide_nodal_stiffness(&mut self, on: bool) -> bool {
         self.stiffness = on;
         if on && !self.committed.stiffness_valid {

@@ -12,7 +12,8 @@
 //! **Rounding.** A slot's memory value is the sum of the *partial sums* of its visits,
 //! added to it in visit order; each partial sum starts from `0.0` and receives its
 //! particles in particle order. When the stencils' bases never decrease along the particle
-//! order (particles sorted by position, the usual 1D layout), every slot is visited once
+//! order (particles sorted by `x − l_p/2`, i.e. by position when the GIMP widths are equal,
+//! the usual 1D layout), every slot is visited once
 //! and its memory holds `0.0` before the flush, so the result is bit for bit the plain
 //! loop's `((0 + c₁) + c₂) + …`. When a base goes back (a particle out of order, e.g. one
 //! that crossed a periodic end), the slots it revisits get `(c₁ + … + c_k) + (c_{k+1} + …)`

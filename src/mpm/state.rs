@@ -65,20 +65,33 @@ impl State {
 
     /// Installs the per-particle tangent moduli, densities and node flags that the pass
     /// computed for this state (freshly invalidated), and returns the spare storage of each
-    /// for the next pass. A cell that is already computed keeps its value (and its buffer
-    /// is handed back).
-    pub fn install_observed(&mut self, observed: Observed) -> Observed {
-        fn back<T>(r: Result<Option<Vec<T>>, Vec<T>>) -> Vec<T> {
-            match r {
-                Ok(spare) => spare.unwrap_or_default(),
-                Err(unused) => unused,
+    /// for the next pass, and whether all three were installed. A cell that is already
+    /// computed (not reached: `try_step` invalidates the trial first) keeps its value, its
+    /// buffer is handed back, and the caller must not vouch for the state.
+    pub fn install_observed(&mut self, observed: Observed) -> (Observed, bool) {
+        let mut all = true;
+        let mut back = |r: Result<Option<Vec<f64>>, Vec<f64>>| match r {
+            Ok(spare) => spare.unwrap_or_default(),
+            Err(unused) => {
+                all = false;
+                unused
             }
-        }
-        Observed {
-            tangent_modulus: back(self.tangent_modulus.install(observed.tangent_modulus)),
-            density: back(self.density.install(observed.density)),
-            node_active: back(self.node_active.install(observed.node_active)),
-        }
+        };
+        let tangent_modulus = back(self.tangent_modulus.install(observed.tangent_modulus));
+        let density = back(self.density.install(observed.density));
+        let node_active = match self.node_active.install(observed.node_active) {
+            Ok(spare) => spare.unwrap_or_default(),
+            Err(unused) => {
+                all = false;
+                unused
+            }
+        };
+        let back = Observed {
+            tangent_modulus,
+            density,
+            node_active,
+        };
+        (back, all)
     }
 
     /// `E_t(F_p)` per particle.

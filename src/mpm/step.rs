@@ -32,9 +32,11 @@
 //! three slots under the particle's stencil (`slot_window.rs`), written to memory when the
 //! window moves on, instead of a read-modify-write of memory per particle, whose
 //! store-to-load chains bounded the pass (measured: bare step at 10⁵ particles 8–12 %
-//! faster, min of 300 steps interleaved with the old binary). With particles sorted by
-//! position the sums are still the plain loop's bit for bit; a particle out of order (one
-//! that crossed a periodic end) splits its slots' sums into partial sums, rounded
+//! faster, min of 300 steps interleaved with the old binary). While the stencils' first
+//! slots never decrease along the particles (particles sorted by `x − l_p/2`: by position
+//! when the widths are equal) the sums are still the plain loop's bit for bit; a particle
+//! out of that order (one that crossed a periodic end or a neighbour) splits its slots'
+//! sums into partial sums, rounded
 //! differently but the same for the same particle order, and the restart's set-up
 //! deposit ([`deposit_state`]) uses the same window. With the stiffness on, the band
 //! (`K_N`) is deposited in the same loop, in memory (a second window was slower), 4-wide
@@ -82,9 +84,9 @@ use super::material::Material;
 use super::slot_window::SlotWindow;
 use super::state::{is_active, Observed, State};
 use super::stencil;
-use crate::controller::{particle_energy, sum_energy_lanes, ENERGY_LANES};
+use super::summary_lanes::{greater, Block, SummaryLanes, SummaryParts};
+use crate::controller::ENERGY_LANES;
 use crate::grid::{Boundary, Grid};
-use crate::pass_summary::PassSummary;
 use crate::shape::{Shape, MAX_NODES};
 
 /// Constants of a run that the kernel reads.
@@ -385,8 +387,9 @@ pub(crate) fn advance(
     to.summary = None;
     if let Some(parts) = flags.summary {
         let observed = std::mem::take(&mut ws.observed);
-        ws.observed = to.install_observed(observed);
-        to.summary = (parts.ok && nodes_ok).then_some(parts.summary);
+        let (spare, installed) = to.install_observed(observed);
+        ws.observed = spare;
+        to.summary = (parts.ok && nodes_ok && installed).then_some(parts.summary);
     }
     Ok(())
 }
@@ -534,142 +537,6 @@ struct PassFlags {
     c2_ref: f64,
     /// The trial's summary when [`Ctx::summary`] is set.
     summary: Option<SummaryParts>,
-}
-
-/// What the pass found for the [`PassSummary`]: the reductions, and whether every particle's
-/// `E_t` and `ρ` are positive and finite (the other particle checks are the pass's own
-/// failure flags; the node checks come from [`finalize`]).
-struct SummaryParts {
-    summary: PassSummary,
-    ok: bool,
-}
-
-/// The summary's running reductions in the pass, particle `p` in lane `p mod 4` (the energy
-/// lanes of [`crate::controller::total_energy`], so the same bits).
-struct SummaryLanes {
-    c2: [f64; ENERGY_LANES],
-    speed: [f64; ENERGY_LANES],
-    energy: [f64; ENERGY_LANES],
-    ok: bool,
-}
-
-/// `x` if `x > acc`, else `acc`: `f64::max` for values without NaN, as one vector select.
-#[inline(always)]
-fn greater(x: f64, acc: f64) -> f64 {
-    if x > acc {
-        x
-    } else {
-        acc
-    }
-}
-
-/// `x` if `x < acc`, else `acc`.
-#[inline(always)]
-fn smaller(x: f64, acc: f64) -> f64 {
-    if x < acc {
-        x
-    } else {
-        acc
-    }
-}
-
-impl SummaryLanes {
-    fn new() -> Self {
-        Self {
-            c2: [0.0; ENERGY_LANES],
-            speed: [0.0; ENERGY_LANES],
-            energy: [0.0; ENERGY_LANES],
-            ok: true,
-        }
-    }
-
-    /// Adds the particles of one block (`E_t`, `ρ` written out), in chunks of
-    /// [`ENERGY_LANES`] with the lanes in locals so that the loop vectorises; the last,
-    /// partial chunk (only in the last block) goes to lanes `0 …` in order, which is still
-    /// lane `p mod 4`.
-    #[inline(always)]
-    fn add(
-        &mut self,
-        tangent: impl Fn(f64) -> f64,
-        (mass, vol0): (&[f64], &[f64]),
-        (v, s, f): (&[f64], &[f64], &[f64]),
-        (et_out, rho_out): (&mut [f64], &mut [f64]),
-    ) {
-        const L: usize = ENERGY_LANES;
-        let (mut c2, mut speed, mut energy) = (self.c2, self.speed, self.energy);
-        // Positive finite `E_t`, `ρ` ⇔ `0·x = 0` (finite) and `x > 0`: lane minima and sums.
-        let (mut zero, mut lo) = ([0.0_f64; L], [f64::INFINITY; L]);
-        let n = mass
-            .len()
-            .min(vol0.len())
-            .min(v.len())
-            .min(s.len())
-            .min(f.len());
-        let n = n.min(et_out.len()).min(rho_out.len());
-        let full = n - n % L;
-        // Two loops over chunks of `L` with the lanes in local arrays, maxima and minima as
-        // selects (`f64::max`'s NaN rule and one loop with all five reductions kept the
-        // compiler from vectorising; closures were not inlined into the AVX2 build at all):
-        // `E_t`, `ρ` and their checks and ratio, then speed and energy. For values without
-        // NaN a select is `f64::max`/`min`; a NaN `E_t` or `ρ` fails the checks anyway.
-        for (((m, v0), f), (et, rho)) in mass[..full]
-            .chunks_exact(L)
-            .zip(vol0[..full].chunks_exact(L))
-            .zip(f[..full].chunks_exact(L))
-            .zip(
-                et_out[..full]
-                    .chunks_exact_mut(L)
-                    .zip(rho_out[..full].chunks_exact_mut(L)),
-            )
-        {
-            for l in 0..L {
-                et[l] = tangent(f[l]);
-                rho[l] = m[l] / (f[l] * v0[l]);
-                c2[l] = greater(et[l] / rho[l], c2[l]);
-                zero[l] += et[l] * 0.0 + rho[l] * 0.0;
-                lo[l] = smaller(smaller(et[l], rho[l]), lo[l]);
-            }
-        }
-        for ((((m, v0), v), (s, f)), et) in mass[..full]
-            .chunks_exact(L)
-            .zip(vol0[..full].chunks_exact(L))
-            .zip(v[..full].chunks_exact(L))
-            .zip(s[..full].chunks_exact(L).zip(f[..full].chunks_exact(L)))
-            .zip(et_out[..full].chunks_exact(L))
-        {
-            for l in 0..L {
-                speed[l] = greater(v[l].abs(), speed[l]);
-                energy[l] += particle_energy(m[l], v[l], s[l], f[l], v0[l], et[l]);
-            }
-        }
-        // The last, partial chunk (last block only): lanes 0, 1, … in order.
-        for (l, p) in (full..n).enumerate() {
-            let et = tangent(f[p]);
-            let rho = mass[p] / (f[p] * vol0[p]);
-            (et_out[p], rho_out[p]) = (et, rho);
-            c2[l] = greater(et / rho, c2[l]);
-            zero[l] += et * 0.0 + rho * 0.0;
-            lo[l] = smaller(smaller(et, rho), lo[l]);
-            speed[l] = greater(v[p].abs(), speed[l]);
-            energy[l] += particle_energy(mass[p], v[p], s[p], f[p], vol0[p], et);
-        }
-        (self.c2, self.speed, self.energy) = (c2, speed, energy);
-        let zero = zero.iter().fold(0.0, |a, &b| a + b);
-        let lo = lo.iter().fold(f64::INFINITY, |a, &b| a.min(b));
-        self.ok &= zero == 0.0 && lo > 0.0;
-    }
-
-    fn finish(self) -> SummaryParts {
-        let max = |l: [f64; ENERGY_LANES]| l.iter().fold(0.0_f64, |a, &b| a.max(b));
-        SummaryParts {
-            summary: PassSummary {
-                max_wave_speed_sq: max(self.c2),
-                max_speed: max(self.speed),
-                total_energy: sum_energy_lanes(self.energy),
-            },
-            ok: self.ok,
-        }
-    }
 }
 
 /// The stencils of one block in structure-of-arrays form, so that evaluating them is a
@@ -900,10 +767,17 @@ where
         // compute them, particle `start + i` in lane `i mod 4` (`BLOCK` is a multiple of 4).
         if let Some(lanes) = summary.as_mut() {
             lanes.add(
+                ctx.material,
                 tangent,
-                (&mass[..len], &vol0[..len]),
-                (&v1[..len], &s1[..len], &f1[..len]),
-                (&mut et_out[start..end], &mut rho_out[start..end]),
+                Block {
+                    mass: &mass[..len],
+                    vol0: &vol0[..len],
+                    v: &v1[..len],
+                    s: &s1[..len],
+                    f: &f1[..len],
+                    et_out: &mut et_out[start..end],
+                    rho_out: &mut rho_out[start..end],
+                },
             );
         }
 
@@ -914,12 +788,14 @@ where
         if stiffness {
             // The nodal stiffness of the new state (eq 56) from the same stencils: the
             // particles' weights first (a loop without stores to shared slots, and `c²_ref`
-            // as lane maxima, exact in any order), then both deposits in one loop, so the
-            // two chains of read-modify-write adds on neighbouring slots overlap.
+            // as lane maxima by compare-and-select, exact in any order and equal to
+            // `f64::max` without NaN; a NaN weight is ignored by both), then both deposits
+            // in one loop, so the two chains of read-modify-write adds on neighbouring slots
+            // overlap.
             for i in 0..len {
                 let (k, c2) = stiffness_weight(tangent(f1[i]), f1[i], vol0[i], mass[i]);
                 k_w[i] = k;
-                c2_lanes[i % 4] = c2_lanes[i % 4].max(c2);
+                c2_lanes[i % 4] = greater(c2, c2_lanes[i % 4]);
             }
             for i in 0..len {
                 let base = base_slot(stencils.first[i] as i64, max_base);
