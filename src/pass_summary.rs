@@ -25,7 +25,16 @@
 //! any order; the energy must follow [`crate::controller::total_energy`]'s grouping (particle
 //! `p` in lane `p mod 4`, lanes added in order) to give the same bits. A stepper that cannot
 //! guarantee all of it leaves the summary out; the limits then check the view themselves.
+//!
+//! **Stamped to its view.** A stepper builds the summary with [`PassSummary::new`] and
+//! attaches it to a view with [`PassSummary::stamp`], which records where the view's
+//! arrays live. The library reads it through [`crate::View::trusted_summary`], which ignores
+//! a summary whose view's arrays are not the stamped ones: a view rebuilt from another with
+//! a field replaced (`View { sigma, ..*view }`) falls back to the checks instead of
+//! inheriting a guarantee about other data. The stamp is not serialized (a deserialized
+//! summary is never trusted).
 
+use crate::stepper::View;
 use serde::{Deserialize, Serialize};
 
 /// Reductions over one state's particles taken by the stepper's pass (module docs).
@@ -38,4 +47,54 @@ pub struct PassSummary {
     /// Kinetic plus stored energy, `Σ_p ½ m_p v_p² + ½ σ_p² F_p V_p⁰ / E_t,p`, summed as
     /// [`crate::controller::total_energy`] sums it.
     pub total_energy: f64,
+    /// The view it was stamped for ([`PassSummary::stamp`]); `None` until stamped.
+    #[serde(skip)]
+    stamp: Option<Stamp>,
+}
+
+/// Addresses and lengths of the arrays of a view that a summary vouches for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Stamp([(usize, usize); 10]);
+
+impl Stamp {
+    fn of(view: &View<'_>) -> Self {
+        let a = |s: &[f64]| (s.as_ptr() as usize, s.len());
+        Stamp([
+            a(view.x),
+            a(view.v),
+            a(view.sigma),
+            a(view.f),
+            a(view.volume0),
+            a(view.mass),
+            a(view.tangent_modulus),
+            a(view.density),
+            a(view.node_mass),
+            (view.node_active.as_ptr() as usize, view.node_active.len()),
+        ])
+    }
+}
+
+impl PassSummary {
+    /// A summary with these reductions, not yet stamped to a view.
+    pub fn new(max_wave_speed_sq: f64, max_speed: f64, total_energy: f64) -> Self {
+        Self {
+            max_wave_speed_sq,
+            max_speed,
+            total_energy,
+            stamp: None,
+        }
+    }
+
+    /// The summary stamped for `view`, the stepper's view of the state it describes.
+    pub fn stamp(self, view: &View<'_>) -> Self {
+        Self {
+            stamp: Some(Stamp::of(view)),
+            ..self
+        }
+    }
+
+    /// Whether the summary was stamped for a view with exactly these arrays.
+    pub fn describes(&self, view: &View<'_>) -> bool {
+        self.stamp == Some(Stamp::of(view))
+    }
 }

@@ -69,8 +69,9 @@ pub struct View<'a> {
     /// Reductions the stepper took in the pass that wrote this state, and its guarantee
     /// that the state passes the library's checks ([`PassSummary`], asked for through
     /// [`Stepper::provide_summary`]); `None` makes the limits scan the fields themselves.
-    /// A view built from another with some field replaced (`View { sigma, ..*view }`)
-    /// must set it to `None`: the summary describes the stepper's state, not the new view.
+    /// The library reads it through [`View::trusted_summary`], which ignores it on a view
+    /// whose arrays are not the ones it was stamped for (a view rebuilt with a field
+    /// replaced, `View { sigma, ..*view }`).
     pub summary: Option<PassSummary>,
 }
 
@@ -83,6 +84,12 @@ impl View<'_> {
     /// Number of nodes.
     pub fn n_nodes(&self) -> usize {
         self.node_mass.len()
+    }
+
+    /// [`View::summary`] if it was stamped for this view's arrays
+    /// ([`PassSummary::describes`]): what the library trusts.
+    pub fn trusted_summary(&self) -> Option<PassSummary> {
+        self.summary.filter(|s| s.describes(self))
     }
 
     /// Longitudinal wave speed of particle `p`, `c_p = √(E_t/ρ)`.

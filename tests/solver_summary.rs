@@ -133,3 +133,39 @@ fn controlled_runs_decide_the_same_with_and_without_the_summary() {
         assert!(without.view().summary.is_none());
     }
 }
+
+/// A summary is trusted only on the view it was stamped for: a view rebuilt with a field
+/// replaced falls back to the checks (here a NaN stress is reported as a typed error
+/// instead of being vouched for), and a deserialized summary carries no stamp.
+#[test]
+fn a_summary_is_trusted_only_on_its_own_view() {
+    let scenario = Scenario::from_json(SCENARIOS[0]).unwrap();
+    let mut s = scenario.build().unwrap();
+    s.provide_summary(true);
+    let dt = 0.3 * s.grid().h / scenario.wave_speed();
+    s.try_step(dt).unwrap();
+    s.accept().unwrap();
+    let view = s.view();
+    let summary = view.trusted_summary().expect("trusted on its own view");
+    let mut sigma = view.sigma.to_vec();
+    sigma[7] = f64::NAN;
+    let rebuilt = View {
+        sigma: &sigma,
+        ..view
+    };
+    assert!(
+        rebuilt.summary.is_some(),
+        "the field is copied by the struct update"
+    );
+    assert!(rebuilt.trusted_summary().is_none());
+    let err = SoundSpeed::default().dt(&rebuilt).unwrap_err();
+    assert!(
+        err.to_string().contains("sigma") || err.to_string().contains("σ"),
+        "{err}"
+    );
+    assert!(SoundSpeed::default().dt(&view).is_ok());
+    let json = serde_json::to_string(&summary).unwrap();
+    let back: mpm_dt::PassSummary = serde_json::from_str(&json).unwrap();
+    assert_eq!(back.total_energy.to_bits(), summary.total_energy.to_bits());
+    assert!(!back.describes(&view));
+}

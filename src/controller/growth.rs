@@ -250,7 +250,7 @@ pub fn total_energy(view: &View<'_>) -> f64 {
 /// [`total_energy`] of a view: the stepper's, when its pass took it
 /// ([`crate::PassSummary::total_energy`], the same bits), else summed here.
 fn energy_of(view: &View<'_>) -> f64 {
-    view.summary
+    view.trusted_summary()
         .map_or_else(|| total_energy(view), |s| s.total_energy)
 }
 

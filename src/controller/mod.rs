@@ -519,7 +519,7 @@ impl Controller {
                         });
                     };
                     // A summary is the stepper's guarantee that the trial is finite.
-                    let nonfinite = match after.summary {
+                    let nonfinite = match after.trusted_summary() {
                         Some(_) => None,
                         None => first_nonfinite(&after),
                     };

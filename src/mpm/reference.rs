@@ -266,7 +266,7 @@ impl ReferenceStepper {
     }
 
     fn state_view<'a>(&'a self, s: &'a State) -> View<'a> {
-        View {
+        let view = View {
             t: s.t,
             step: s.step,
             grid: &self.grid,
@@ -284,7 +284,12 @@ impl ReferenceStepper {
             node_acceleration: &s.node_acceleration,
             node_active: s.node_active(&self.grid, self.threshold),
             nodal_stiffness: s.stiffness_valid.then_some(&s.stiffness),
-            summary: s.summary,
+            summary: None,
+        };
+        // The pass's summary, stamped for this view's arrays (`crate::pass_summary`).
+        View {
+            summary: s.summary.map(|p| p.stamp(&view)),
+            ..view
         }
     }
 }

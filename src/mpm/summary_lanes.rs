@@ -152,11 +152,7 @@ impl SummaryLanes {
     pub(super) fn finish(self) -> SummaryParts {
         let max = |l: [f64; L]| l.iter().fold(0.0_f64, |a, &b| a.max(b));
         SummaryParts {
-            summary: PassSummary {
-                max_wave_speed_sq: max(self.c2),
-                max_speed: max(self.speed),
-                total_energy: sum_energy_lanes(self.energy),
-            },
+            summary: PassSummary::new(max(self.c2), max(self.speed), sum_energy_lanes(self.energy)),
             ok: self.ok,
         }
     }

@@ -174,7 +174,7 @@ fn check_view_scan(view: &crate::stepper::View<'_>, speeds: bool) -> Option<(f64
     {
         return None;
     }
-    if let Some(summary) = view.summary {
+    if let Some(summary) = view.trusted_summary() {
         return Some(if speeds {
             (summary.max_wave_speed_sq, summary.max_speed)
         } else {
