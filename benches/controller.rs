@@ -107,6 +107,33 @@ impl Stepper for WithoutSummary {
     }
 }
 
+/// [`controller`] warmed up (filter history, λmax tracker) on 5 real steps of `s`.
+fn warmed_controller(s: &mut dyn Stepper) -> Controller {
+    let mut ctl = controller();
+    for _ in 0..5 {
+        if let Err(e) = ctl.step(s, f64::INFINITY) {
+            panic!("controller failed: {e}");
+        }
+    }
+    ctl
+}
+
+/// One accepted controlled step of `s` per iteration, as `name/particles`.
+fn bench_controlled(
+    group: &mut criterion::BenchmarkGroup<'_, criterion::measurement::WallTime>,
+    name: &str,
+    particles: usize,
+    ctl: &mut Controller,
+    s: &mut dyn Stepper,
+) {
+    group.bench_function(BenchmarkId::new(name, particles), |b| {
+        b.iter(|| match ctl.step(s, f64::INFINITY) {
+            Ok(d) => black_box(d),
+            Err(e) => panic!("controller failed: {e}"),
+        })
+    });
+}
+
 /// The standard controller with its default configuration (what `examples/compare.rs` runs).
 fn controller() -> Controller {
     match Controller::standard(ControllerConfig::default()) {
@@ -122,37 +149,14 @@ fn bench_overhead(c: &mut Criterion) {
             group.sample_size(10);
         }
         let mut s = stepper(particles);
-        let mut ctl = controller();
-        // Warm up the controller (filter history, λmax tracker) on a few real steps.
-        for _ in 0..5 {
-            if let Err(e) = ctl.step(&mut s, f64::INFINITY) {
-                panic!("controller failed: {e}");
-            }
-        }
+        let mut ctl = warmed_controller(&mut s);
         group.throughput(Throughput::Elements(particles as u64));
-        group.bench_function(BenchmarkId::new("controlled", particles), |b| {
-            b.iter(|| match ctl.step(&mut s, f64::INFINITY) {
-                Ok(d) => black_box(d),
-                Err(e) => panic!("controller failed: {e}"),
-            })
-        });
+        bench_controlled(&mut group, "controlled", particles, &mut ctl, &mut s);
         {
             let mut w = WithoutSummary(stepper(particles));
-            let mut ctl = controller();
-            for _ in 0..6 {
-                if let Err(e) = ctl.step(&mut w, f64::INFINITY) {
-                    panic!("controller failed: {e}");
-                }
-            }
-            group.bench_function(
-                BenchmarkId::new("controlled_without_summary", particles),
-                |b| {
-                    b.iter(|| match ctl.step(&mut w, f64::INFINITY) {
-                        Ok(d) => black_box(d),
-                        Err(e) => panic!("controller failed: {e}"),
-                    })
-                },
-            );
+            let mut ctl = warmed_controller(&mut w);
+            let id = "controlled_without_summary";
+            bench_controlled(&mut group, id, particles, &mut ctl, &mut w);
         }
         let dt = ctl.state().dt_prev.unwrap_or(0.5 * s.grid().h);
         // The bare step without the nodal stiffness and the pass summary the controller

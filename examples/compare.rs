@@ -51,7 +51,7 @@
 
 use mpm_dt::controller::Controller;
 use mpm_dt::mpm::ReferenceStepper;
-use mpm_dt::scenario::{MaterialKind, Scenario};
+use mpm_dt::scenario::Scenario;
 use mpm_dt::stability::{Refresh, SoundSpeed, SoundSpeedConfig, Tracking};
 use mpm_dt::{closing_half_step, Stepper};
 use serde::Serialize;
@@ -174,22 +174,17 @@ impl Reference<'_> {
     ) -> PolicyResult {
         let t = stepper.time();
         let steps = stepper.step_count();
-        let exact = match self.scenario.material {
-            MaterialKind::LinearElastic => self.scenario.standing_wave(),
-            MaterialKind::NeoHookean => None,
-        };
         let view = stepper.view();
-        let error = |v: &[f64]| {
-            exact.and_then(|w| {
-                let err = w.velocity_error_linf(&self.x0, v, t);
-                err.is_finite().then_some(err)
-            })
-        };
-        let velocity_error_linf_raw = error(view.v);
         // Only with an exact solution to compare with (it builds the view's weights).
-        let velocity_error_linf = match exact.map(|_| view.synchronized_velocity(half_step)) {
-            Some(Ok(v)) => error(&v),
-            Some(Err(e)) => {
+        let errors = self
+            .scenario
+            .exact_solution()
+            .map(|w| w.velocity_errors(&self.x0, &view, half_step));
+        let finite = |e: f64| e.is_finite().then_some(e);
+        let velocity_error_linf_raw = errors.as_ref().and_then(|(_, raw)| finite(*raw));
+        let velocity_error_linf = match errors {
+            Some((Ok(e), _)) => finite(e),
+            Some((Err(e), _)) => {
                 tracing::error!(error = %e, "synchronised velocity");
                 None
             }
@@ -221,6 +216,9 @@ fn run_fixed(
 ) -> Result<PolicyResult, String> {
     let limit = SoundSpeed::new(SoundSpeedConfig { alpha }).map_err(|e| e.to_string())?;
     let mut stepper = scenario.build().map_err(|e| e.to_string())?;
+    // The pass summary saves the limit its validation scan (the same steps, bit for bit:
+    // `tests/solver_summary.rs`), as in the controller's run.
+    stepper.provide_summary(true);
     let t_end = scenario.t_end;
     let start = Instant::now();
     let mut failure = None;

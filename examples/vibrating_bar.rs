@@ -32,7 +32,7 @@
 //! and also prints the particle state.
 
 use mpm_dt::controller::{Controller, Decision, Outcome, Stats};
-use mpm_dt::mpm::{Material, ReferenceStepper};
+use mpm_dt::mpm::ReferenceStepper;
 use mpm_dt::scenario::Scenario;
 use mpm_dt::{closing_half_step, Stepper};
 use serde_json::json;
@@ -344,22 +344,20 @@ fn main() -> ExitCode {
     let blew_up = run.failure.is_some()
         || !energy_final.is_finite()
         || (energy_initial > 0.0 && energy_final > 10.0 * energy_initial);
-    let exact = match scenario.material() {
-        Material::LinearElastic { .. } => scenario.standing_wave(),
-        Material::NeoHookean { .. } => None,
-    };
-    let error = |v: &[f64]| exact.map(|w| w.velocity_error_linf(&x0, v, view.t));
     // ℓ of the synchronised velocity (module docs).
     let half_step = match args.fixed_dt {
         Some(dt) if !run.dts.is_empty() => 0.5 * dt,
         Some(_) => 0.0,
         None => closing_half_step(&decisions).unwrap_or(0.0),
     };
-    let velocity_error_linf_raw = error(view.v);
     // Only with an exact solution to compare with (it builds the view's weights).
-    let velocity_error_linf = match exact.map(|_| view.synchronized_velocity(half_step)) {
-        Some(Ok(v)) => error(&v),
-        Some(Err(e)) => {
+    let errors = scenario
+        .exact_solution()
+        .map(|w| w.velocity_errors(&x0, &view, half_step));
+    let velocity_error_linf_raw = errors.as_ref().map(|(_, raw)| *raw);
+    let velocity_error_linf = match errors {
+        Some((Ok(e), _)) => Some(e),
+        Some((Err(e), _)) => {
             tracing::error!(error = %e, "synchronised velocity");
             None
         }

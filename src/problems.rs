@@ -29,6 +29,8 @@
 
 use crate::grid::{Boundary, Grid};
 use crate::mpm::ParticleInit;
+use crate::stepper::View;
+use crate::synchronized_velocity::SyncVelocityError;
 use std::f64::consts::PI;
 
 /// The standing wave of the module docs.
@@ -98,6 +100,22 @@ impl StandingWave {
             .map(|(&x, &v)| v - self.velocity(x, t))
             .collect();
         crate::estimators::linf(&e)
+    }
+
+    /// The errors of a state against this wave at the state's time: `(synchronised, raw)`,
+    /// [`Self::velocity_error_linf`] of [`View::synchronized_velocity`]`(half_step)` (an
+    /// error if `half_step` or the view is invalid) and of the raw particle velocities.
+    /// `x0` are the particles' reference positions.
+    pub fn velocity_errors(
+        &self,
+        x0: &[f64],
+        view: &View<'_>,
+        half_step: f64,
+    ) -> (Result<f64, SyncVelocityError>, f64) {
+        let synchronised = view
+            .synchronized_velocity(half_step)
+            .map(|v| self.velocity_error_linf(x0, &v, view.t));
+        (synchronised, self.velocity_error_linf(x0, view.v, view.t))
     }
 
     /// Exact stress `σ(x, t) = E A cos(κ(x − a)) sin(ωt)`.

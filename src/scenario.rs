@@ -457,6 +457,16 @@ impl Scenario {
         }
     }
 
+    /// The exact solution to measure errors against: the standing wave of
+    /// [`Self::standing_wave`] for the linear elastic material, `None` for the neo-Hookean
+    /// one (which has no exact solution here).
+    pub fn exact_solution(&self) -> Option<StandingWave> {
+        match self.material {
+            MaterialKind::LinearElastic => self.standing_wave(),
+            MaterialKind::NeoHookean => None,
+        }
+    }
+
     /// The particles at `t = 0`.
     pub fn particle_init(&self) -> Result<ParticleInit, ScenarioError> {
         let grid = self.grid()?;

@@ -144,7 +144,7 @@ impl Weights {
             unsafe { fill_avx2(grid, shape, x, widths, out) };
             return;
         }
-        fill_baseline(grid, shape, x, widths, out);
+        fill_shape::<false>(grid, shape, x, widths, out);
     }
 
     /// Number of nodes (rows of `S` and `D`).
@@ -245,46 +245,44 @@ impl Weights {
 /// The stored rows `(nodes, S, D)` that [`Weights::compute_into`] fills.
 type Rows<'a> = (&'a mut [u32], &'a mut [f64], &'a mut [f64]);
 
-/// [`fill`] compiled for AVX2, where `⌊·⌋` is one instruction (the same exact result as
-/// the baseline's truncation and correction, see `mpm::stencil`).
+/// [`fill_shape`] compiled for AVX2, where `⌊·⌋` is one instruction (the same exact result
+/// as the baseline's truncation and correction, see `mpm::stencil`).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 fn fill_avx2(grid: &Grid, shape: Shape, x: &[f64], widths: &[f64], out: Rows<'_>) {
-    match shape {
-        Shape::Gimp => fill::<true>(grid, x, widths, out, |x, l, inv_h| {
-            stencil::gimp_parts::<true>(x, l, inv_h)
-        }),
-        Shape::Linear => fill::<true>(grid, x, widths, out, |x, _, inv_h| {
-            stencil::linear_parts::<true>(x, inv_h)
-        }),
-    }
+    fill_shape::<true>(grid, shape, x, widths, out);
 }
 
-/// [`fill`] in the baseline build.
-fn fill_baseline(grid: &Grid, shape: Shape, x: &[f64], widths: &[f64], out: Rows<'_>) {
-    match shape {
-        Shape::Gimp => fill::<false>(grid, x, widths, out, |x, l, inv_h| {
-            stencil::gimp_parts::<false>(x, l, inv_h)
-        }),
-        Shape::Linear => fill::<false>(grid, x, widths, out, |x, _, inv_h| {
-            stencil::linear_parts::<false>(x, inv_h)
-        }),
-    }
-}
-
-/// Fills the rows of [`Weights::compute_into`] (all slices sized for `x.len()` particles).
-/// A stencil whose three nodes are consecutive stored nodes — every particle but those
-/// whose stencil crosses the periodic wrap or a fixed grid's end — is stored directly; the
-/// others go through [`Grid::storage_index`].
-/// `parts(x − origin, l_p, 1/h)` is the reference solver's branch-free stencil
-/// (`mpm::stencil`), so the view's weights are exactly those the solver's step uses.
+/// [`fill`] with the reference solver's branch-free stencil of `shape` (`mpm::stencil`),
+/// `⌊·⌋` by rounding instruction if `ROUND`: the view's weights are exactly those the
+/// solver's step uses.
 #[inline(always)]
-fn fill<const ROUND: bool>(
+fn fill_shape<const ROUND: bool>(
+    grid: &Grid,
+    shape: Shape,
+    x: &[f64],
+    widths: &[f64],
+    out: Rows<'_>,
+) {
+    match shape {
+        Shape::Gimp => fill(grid, x, widths, out, stencil::gimp::<ROUND>),
+        Shape::Linear => fill(grid, x, widths, out, |x, _, inv_h| {
+            stencil::linear::<ROUND>(x, inv_h)
+        }),
+    }
+}
+
+/// Fills the rows of [`Weights::compute_into`] (all slices sized for `x.len()` particles)
+/// with `stencil(x − origin, l_p, 1/h)`. A stencil whose three nodes are consecutive stored
+/// nodes — every particle but those whose stencil crosses the periodic wrap or a fixed
+/// grid's end — is stored directly; the others go through [`Grid::storage_index`].
+#[inline(always)]
+fn fill(
     grid: &Grid,
     x: &[f64],
     widths: &[f64],
     (nodes, s, d): Rows<'_>,
-    parts: impl Fn(f64, f64, f64) -> stencil::Parts,
+    stencil: impl Fn(f64, f64, f64) -> ParticleStencil,
 ) {
     let (origin, inv_h) = (grid.origin, 1.0 / grid.h);
     // Storage index of lattice node j is j + shift when it is in range.
@@ -298,12 +296,7 @@ fn fill<const ROUND: bool>(
         .zip(s.chunks_exact_mut(MAX_NODES))
         .zip(d.chunks_exact_mut(MAX_NODES));
     for ((&xp, &lp), ((nodes, s), d)) in x.iter().zip(widths).zip(rows) {
-        let p = parts(xp - origin, lp, inv_h);
-        let st = ParticleStencil {
-            first: p.first as i64,
-            s: p.s,
-            d: p.d,
-        };
+        let st = stencil(xp - origin, lp, inv_h);
         let k0 = st.first.saturating_add(shift);
         if (0..=last_first).contains(&k0) {
             for (k, node) in nodes.iter_mut().enumerate() {

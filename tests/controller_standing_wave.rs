@@ -180,11 +180,8 @@ fn velocity_error(s: &ReferenceStepper, wave: &StandingWave, x0: &[f64], lag: f6
 
 /// The error of the synchronised velocity (closing half step `half_step`) at the run's time.
 fn sync_error(s: &ReferenceStepper, wave: &StandingWave, x0: &[f64], half_step: f64) -> f64 {
-    let view = s.view();
-    let v = view
-        .synchronized_velocity(half_step)
-        .expect("synchronised velocity");
-    wave.velocity_error_linf(x0, &v, view.t)
+    let (synchronised, _raw) = wave.velocity_errors(x0, &s.view(), half_step);
+    synchronised.expect("synchronised velocity")
 }
 
 fn limits() -> Vec<Box<dyn StepLimit>> {

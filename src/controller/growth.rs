@@ -223,7 +223,6 @@ pub fn total_energy(view: &View<'_>) -> f64 {
         &view.volume0[..n],
         &view.tangent_modulus[..n],
     );
-    let particle = particle_energy;
     const L: usize = ENERGY_LANES;
     let mut lanes = [0.0; L];
     let chunks = m
@@ -237,12 +236,12 @@ pub fn total_energy(view: &View<'_>) -> f64 {
         );
     for (((m, v), s), ((f, v0), et)) in chunks {
         for l in 0..L {
-            lanes[l] += particle(m[l], v[l], s[l], f[l], v0[l], et[l]);
+            lanes[l] += particle_energy(m[l], v[l], s[l], f[l], v0[l], et[l]);
         }
     }
     let full = n - n % L;
     for (l, p) in (full..n).enumerate() {
-        lanes[l] += particle(m[p], v[p], s[p], f[p], v0[p], et[p]);
+        lanes[l] += particle_energy(m[p], v[p], s[p], f[p], v0[p], et[p]);
     }
     sum_energy_lanes(lanes)
 }

@@ -179,9 +179,14 @@ enum BoundName {
 
 /// The first non-finite value of the trial's `x`, `v`, `σ`, `F` (in that order), if any.
 ///
-/// Runs on every trial: a vectorised pass per field confirms the normal case (all finite)
-/// and only a failing field is searched element by element for the first bad index.
+/// Runs on every trial: a trusted pass summary is the stepper's guarantee that the trial is
+/// finite (`crate::pass_summary`); else a vectorised pass per field confirms the normal
+/// case (all finite) and only a failing field is searched element by element for the first
+/// bad index.
 fn first_nonfinite(view: &View<'_>) -> Option<(&'static str, usize, f64)> {
+    if view.trusted_summary().is_some() {
+        return None;
+    }
     if [view.x, view.v, view.sigma, view.f]
         .into_iter()
         .all(crate::stability::all_finite)
@@ -518,12 +523,7 @@ impl Controller {
                             source: StepError::NoTrial,
                         });
                     };
-                    // A summary is the stepper's guarantee that the trial is finite.
-                    let nonfinite = match after.trusted_summary() {
-                        Some(_) => None,
-                        None => first_nonfinite(&after),
-                    };
-                    if let Some((field, index, value)) = nonfinite {
+                    if let Some((field, index, value)) = first_nonfinite(&after) {
                         cause = Some(RejectCause::NonFinite);
                         rejected_by = Some("state".to_string());
                         message = Some(format!(

@@ -67,6 +67,10 @@ impl<L: StepLimit> StepLimit for SafetyScaled<L> {
         self.inner.rejected(dt, cause);
     }
 
+    fn reads_nodal_stiffness(&self) -> bool {
+        self.inner.reads_nodal_stiffness()
+    }
+
     fn scale_safety(&mut self, factor: f64) {
         if factor.is_finite() && factor > 0.0 {
             self.factor *= factor;

@@ -245,13 +245,8 @@ impl ReferenceStepper {
             .sum()
     }
 
-    /// The kernel's view of the run's constants.
-    fn ctx(&self, stiffness: bool) -> Ctx<'_> {
-        self.ctx_with(stiffness, false)
-    }
-
-    /// [`Self::ctx`], with the pass summary on or off.
-    fn ctx_with(&self, stiffness: bool, summary: bool) -> Ctx<'_> {
+    /// The kernel's view of the run's constants and of what the pass is asked to provide.
+    fn ctx(&self) -> Ctx<'_> {
         Ctx {
             grid: &self.grid,
             shape: self.shape,
@@ -260,8 +255,8 @@ impl ReferenceStepper {
             volume0: &self.volume0,
             width: &self.width,
             threshold: self.threshold,
-            stiffness,
-            summary,
+            stiffness: self.stiffness,
+            summary: self.summary,
         }
     }
 
@@ -315,13 +310,7 @@ impl Stepper for ReferenceStepper {
             std::mem::take(&mut self.workspace),
             std::mem::take(&mut self.trial),
         );
-        let result = advance(
-            &self.ctx_with(self.stiffness, self.summary),
-            &mut workspace,
-            &self.committed,
-            &mut trial,
-            dt,
-        );
+        let result = advance(&self.ctx(), &mut workspace, &self.committed, &mut trial, dt);
         (self.workspace, self.trial) = (workspace, trial);
         match result {
             Ok(()) => {
@@ -403,7 +392,7 @@ impl Stepper for ReferenceStepper {
                 std::mem::take(&mut self.workspace),
                 std::mem::take(&mut self.committed),
             );
-            deposit_state(&self.ctx(true), &mut workspace, &mut committed);
+            deposit_state(&self.ctx(), &mut workspace, &mut committed);
             (self.workspace, self.committed) = (workspace, committed);
         }
         true

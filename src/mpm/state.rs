@@ -69,29 +69,24 @@ impl State {
     /// computed (not reached: `try_step` invalidates the trial first) keeps its value, its
     /// buffer is handed back, and the caller must not vouch for the state.
     pub fn install_observed(&mut self, observed: Observed) -> (Observed, bool) {
+        /// The spare storage, or the refused buffer (clearing `all`).
+        fn back<T>(r: Result<Option<Vec<T>>, Vec<T>>, all: &mut bool) -> Vec<T> {
+            r.unwrap_or_else(|unused| {
+                *all = false;
+                Some(unused)
+            })
+            .unwrap_or_default()
+        }
         let mut all = true;
-        let mut back = |r: Result<Option<Vec<f64>>, Vec<f64>>| match r {
-            Ok(spare) => spare.unwrap_or_default(),
-            Err(unused) => {
-                all = false;
-                unused
-            }
+        let spare = Observed {
+            tangent_modulus: back(
+                self.tangent_modulus.install(observed.tangent_modulus),
+                &mut all,
+            ),
+            density: back(self.density.install(observed.density), &mut all),
+            node_active: back(self.node_active.install(observed.node_active), &mut all),
         };
-        let tangent_modulus = back(self.tangent_modulus.install(observed.tangent_modulus));
-        let density = back(self.density.install(observed.density));
-        let node_active = match self.node_active.install(observed.node_active) {
-            Ok(spare) => spare.unwrap_or_default(),
-            Err(unused) => {
-                all = false;
-                unused
-            }
-        };
-        let back = Observed {
-            tangent_modulus,
-            density,
-            node_active,
-        };
-        (back, all)
+        (spare, all)
     }
 
     /// `E_t(F_p)` per particle.

@@ -118,12 +118,27 @@ impl SummaryLanes {
     /// lanes `0, 1, …` in order, which is still `p mod 4`). `tangent` is `material`'s
     /// `E_t(F)` without its `match`, for the portable loop.
     #[inline(always)]
-    pub(super) fn add(
+    pub(super) fn add(&mut self, material: Material, tangent: impl Fn(f64) -> f64, b: Block<'_>) {
+        #[cfg(target_arch = "x86_64")]
+        let avx2 = super::has_avx2();
+        #[cfg(not(target_arch = "x86_64"))]
+        let avx2 = false;
+        let checks = self.add_block(material, tangent, b, avx2);
+        let zero = checks.zero.iter().fold(0.0, |a, &z| a + z);
+        let lo = checks.lo.iter().fold(f64::INFINITY, |a, &x| a.min(x));
+        self.ok &= zero == 0.0 && lo > 0.0;
+    }
+
+    /// [`Self::add`] without folding the block's checks into `ok`; the full chunks in AVX2
+    /// when `avx2` is set (the caller has detected it) on x86-64, else all portable.
+    #[inline(always)]
+    fn add_block(
         &mut self,
         material: Material,
         tangent: impl Fn(f64) -> f64,
         mut b: Block<'_>,
-    ) {
+        avx2: bool,
+    ) -> Checks {
         let n = b.mass.len().min(b.vol0.len()).min(b.v.len()).min(b.s.len());
         let n = n.min(b.f.len()).min(b.et_out.len()).min(b.rho_out.len());
         let full = n - n % L;
@@ -133,20 +148,18 @@ impl SummaryLanes {
         };
         let mut done = 0;
         #[cfg(target_arch = "x86_64")]
-        if super::has_avx2() {
-            // SAFETY: `avx2::chunks` only requires AVX2, which `has_avx2` detected.
+        if avx2 {
+            // SAFETY: `avx2::chunks` only requires AVX2, which the caller detected.
             unsafe { avx2::chunks(self, &mut checks, material, &mut b, full) };
             done = full;
         }
-        let _ = material;
+        let _ = (material, avx2);
         for p in done..n {
             let inputs = (b.mass[p], b.vol0[p], b.v[p], b.s[p], b.f[p]);
             let (et, rho) = (&mut b.et_out[p], &mut b.rho_out[p]);
             self.particle(&mut checks, p % L, &tangent, inputs, et, rho);
         }
-        let zero = checks.zero.iter().fold(0.0, |a, &z| a + z);
-        let lo = checks.lo.iter().fold(f64::INFINITY, |a, &x| a.min(x));
-        self.ok &= zero == 0.0 && lo > 0.0;
+        checks
     }
 
     pub(super) fn finish(self) -> SummaryParts {
@@ -287,12 +300,7 @@ mod tests {
                 let run = |avx: bool| {
                     let (mut et, mut rho) = (vec![0.0; n], vec![0.0; n]);
                     let mut lanes = SummaryLanes::new();
-                    let mut checks = Checks {
-                        zero: [0.0; L],
-                        lo: [f64::INFINITY; L],
-                    };
-                    let full = n - n % L;
-                    let mut b = Block {
+                    let b = Block {
                         mass: &mass,
                         vol0: &vol0,
                         v: &v,
@@ -301,21 +309,9 @@ mod tests {
                         et_out: &mut et,
                         rho_out: &mut rho,
                     };
-                    let mut done = 0;
                     #[cfg(target_arch = "x86_64")]
-                    if avx && super::super::has_avx2() {
-                        // SAFETY: AVX2 was detected.
-                        unsafe { avx2::chunks(&mut lanes, &mut checks, material, &mut b, full) };
-                        done = full;
-                    }
-                    let Block {
-                        et_out, rho_out, ..
-                    } = b;
-                    for p in done..n {
-                        let inputs = (mass[p], vol0[p], v[p], s[p], f[p]);
-                        let (e, r) = (&mut et_out[p], &mut rho_out[p]);
-                        lanes.particle(&mut checks, p % L, &tangent, inputs, e, r);
-                    }
+                    let avx = avx && super::super::has_avx2();
+                    let checks = lanes.add_block(material, tangent, b, avx);
                     let bits = |x: &[f64]| x.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
                     (
                         bits(&lanes.c2),
@@ -323,8 +319,8 @@ mod tests {
                         bits(&lanes.energy),
                         bits(&checks.zero),
                         bits(&checks.lo),
-                        bits(et_out),
-                        bits(rho_out),
+                        bits(&et),
+                        bits(&rho),
                     )
                 };
                 assert_eq!(run(true), run(false), "{material:?} n = {n}");

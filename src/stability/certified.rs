@@ -308,20 +308,24 @@ impl CertifiedTracker {
         // stepper's K_N ([`below_shift_pencil`], no operator build) or the assembled `C`.
         let mut proven_above = None;
         let mut factorisations = 0;
-        if let Some(rho) = hint.filter(|&r| r > 0.0) {
-            let periodic = matches!(view.grid.boundary, crate::Boundary::Periodic);
-            let stiffness = view.nodal_stiffness;
-            let on_pencil = stiffness.is_some_and(|k| {
+        let rho_hint = hint.filter(|&r| r > 0.0);
+        let periodic = matches!(view.grid.boundary, crate::Boundary::Periodic);
+        let stiffness = view.nodal_stiffness;
+        let on_pencil = rho_hint.is_some()
+            && stiffness.is_some_and(|k| {
                 self.pencil
                     .prepare(k, view.node_mass, view.node_active, periodic)
             });
+        // A K_N the pencil cannot take (under 7 nodes, sizes that do not fit) leaves no
+        // operator to test here: straight to the fall-back.
+        if let Some(rho) = rho_hint.filter(|_| stiffness.is_none() || on_pencil) {
             let pencil = &self.pencil;
-            let test = |mu: f64| match (stiffness, on_pencil) {
-                (Some(_), true) => Some(pencil.below_shift(mu)),
-                (Some(_), false) => None,
-                (None, _) => {
+            let test = |mu: f64| {
+                if on_pencil {
+                    pencil.below_shift(mu)
+                } else {
                     let (diag, off) = op.bands();
-                    Some(below_shift(diag, off, op.is_periodic(), mu))
+                    below_shift(diag, off, op.is_periodic(), mu)
                 }
             };
             let tight = (1.0 + margin) * rho;
@@ -393,7 +397,7 @@ impl CertifiedTracker {
         let (diag, off) = op.bands();
         let periodic = op.is_periodic();
         let margin = self.config.margin;
-        let test = |mu: f64| Some(below_shift(diag, off, periodic, mu));
+        let test = |mu: f64| below_shift(diag, off, periodic, mu);
         let lower = op.diagonal_max().map_or(0.0, |(_, d)| d);
         let mut bracket = Bracket::new(test, margin, lower);
         bracket.factorisations = factorisations;
@@ -557,10 +561,10 @@ fn shift(lo: f64, factor: f64) -> f64 {
 }
 
 /// The search for a certified bracket `lo ≤ λmax < hi` that both anchor paths share: `test`
-/// is an inertia test on the operator at hand (`Some(true)`: every eigenvalue is below the
-/// shift; `None`: the test cannot run there). A failed test raises `lo` (up to rounding,
+/// is an inertia test on the operator at hand (`true`: every eigenvalue is below the
+/// shift). A failed test raises `lo` (up to rounding,
 /// module docs of [`super::certificate`]); `hi` only ever comes from a test that passed.
-struct Bracket<T: Fn(f64) -> Option<bool>> {
+struct Bracket<T: Fn(f64) -> bool> {
     test: T,
     margin: f64,
     /// The lower end: a Rayleigh quotient or a failed shift.
@@ -569,7 +573,7 @@ struct Bracket<T: Fn(f64) -> Option<bool>> {
     factorisations: usize,
 }
 
-impl<T: Fn(f64) -> Option<bool>> Bracket<T> {
+impl<T: Fn(f64) -> bool> Bracket<T> {
     fn new(test: T, margin: f64, lo: f64) -> Self {
         Self {
             test,
@@ -579,16 +583,10 @@ impl<T: Fn(f64) -> Option<bool>> Bracket<T> {
         }
     }
 
-    /// One test at `mu`, counted when it ran.
-    fn run(&mut self, mu: f64) -> Option<bool> {
-        let passed = (self.test)(mu);
-        self.factorisations += usize::from(passed.is_some());
-        passed
-    }
-
-    /// Whether the test at `mu` certifies `λmax < mu`.
+    /// Whether the test at `mu` certifies `λmax < mu` (counted).
     fn certifies(&mut self, mu: f64) -> bool {
-        self.run(mu) == Some(true)
+        self.factorisations += 1;
+        (self.test)(mu)
     }
 
     /// Tries `base (1 + 2^k margin)` for `k` in `ks` (`k = 0`: `base` itself) until one
@@ -601,10 +599,10 @@ impl<T: Fn(f64) -> Option<bool>> Bracket<T> {
                 1.0 + self.margin * f64::from(1u32 << k)
             };
             let mu = shift(base, factor);
-            match self.run(mu)? {
-                true => return Some(mu),
-                false => self.lo = mu,
+            if self.certifies(mu) {
+                return Some(mu);
             }
+            self.lo = mu;
         }
         None
     }
@@ -614,10 +612,10 @@ impl<T: Fn(f64) -> Option<bool>> Bracket<T> {
     fn bisect(&mut self, mut hi: f64, start: Option<f64>) -> f64 {
         let mut mu = start.unwrap_or(0.5 * (self.lo + hi));
         while hi > (1.0 + self.margin) * self.lo && self.lo > 0.0 && self.factorisations < 64 {
-            match self.run(mu) {
-                Some(true) => hi = mu,
-                Some(false) => self.lo = mu,
-                None => break,
+            if self.certifies(mu) {
+                hi = mu;
+            } else {
+                self.lo = mu;
             }
             mu = 0.5 * (self.lo + hi);
         }

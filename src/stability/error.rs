@@ -146,8 +146,6 @@ const LANES: usize = 8;
 /// the caller to [`check_view_exact`].
 fn check_view_scan(view: &crate::stepper::View<'_>, speeds: bool) -> Option<(f64, f64)> {
     let n = view.n_particles();
-    // The stepper's summary vouches for the per-value checks and carries the maxima
-    // (`crate::pass_summary`): only the sizes, O(1), are left to check.
     let nn = view.grid.n_nodes();
     if n == 0
         || [
@@ -174,6 +172,8 @@ fn check_view_scan(view: &crate::stepper::View<'_>, speeds: bool) -> Option<(f64
     {
         return None;
     }
+    // The stepper's summary vouches for the per-value checks and carries the maxima
+    // (`crate::pass_summary`): only the sizes, O(1), were left to check.
     if let Some(summary) = view.trusted_summary() {
         return Some(if speeds {
             (summary.max_wave_speed_sq, summary.max_speed)

@@ -12,9 +12,9 @@
 //!
 //! **Layout of the loop.** The interior nodes `2 … n−3` run in chunks of [`LANES`]
 //! consecutive nodes with [`LANES`] independent accumulators of each sum, maximum and flag,
-//! every branch written as a select: the compiler turns a chunk into 4-wide vector
-//! instructions (the band entries `K_N(i, i+1)`, `K_N(i, i+2)` are interleaved in storage and
-//! deinterleaved by shuffles), so the divisions of the power step and the two reduction
+//! every branch written as a select; a chunk is 4-wide vector instructions (explicit AVX2
+//! intrinsics in that build, the portable lanes otherwise; the band entries `K_N(i, i+1)`,
+//! `K_N(i, i+2)` are interleaved in storage and deinterleaved by shuffles), so the divisions of the power step and the two reduction
 //! chains no longer serialise the pass. The first and last two nodes (and the remainder of
 //! the interior) go through the scalar wrapped row. The lanes are summed at the end, so the
 //! quotient's rounding differs from a sequential sum by a few units in the last place (it is
