@@ -185,13 +185,7 @@ fn the_stability_limit_follows_the_exact_eq56_step_through_a_collapse() {
             fx.refresh();
             let view = fx.view();
             let p = limit.propose(&view).unwrap();
-            let exact = safety
-                * Eq56Operator::critical_dt(
-                    Eq56Operator::new(&view)
-                        .unwrap()
-                        .dense_lambda_max()
-                        .unwrap(),
-                );
+            let exact = safety * dense_dt56(&view);
             let certified = p.metrics["lambda_certified"] > 0.0;
             let cap = if certified { 1.0 } else { 1.01 };
             worst = worst.max(p.dt / exact);

@@ -2,14 +2,12 @@
 
 mod stability_common;
 
-use mpm_dt::stability::{Eq56Operator, FullMap, FullMapConfig};
+use mpm_dt::stability::{FullMap, FullMapConfig};
 use mpm_dt::Shape;
 use stability_common::*;
 
 fn dt56(fx: &Fixture) -> f64 {
-    let view = fx.view();
-    let op = Eq56Operator::new(&view).unwrap();
-    Eq56Operator::critical_dt(op.dense_lambda_max().unwrap())
+    dense_dt56(&fx.view())
 }
 
 fn dt_full(fx: &Fixture, start: f64) -> f64 {

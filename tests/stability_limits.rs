@@ -2,9 +2,7 @@
 
 mod stability_common;
 
-use mpm_dt::stability::{
-    Bound58Reading, Eq56Operator, SoundSpeed, SoundSpeedConfig, Stability, StabilityConfig,
-};
+use mpm_dt::stability::{Bound58Reading, SoundSpeed, SoundSpeedConfig, Stability, StabilityConfig};
 use mpm_dt::{RejectCause, Shape, StepLimit, Verdict};
 use stability_common::*;
 
@@ -37,12 +35,7 @@ fn stability_proposes_safety_times_dt_eq56_and_reports_metrics() {
         4.0,
     );
     let view = fx.view();
-    let dense = Eq56Operator::critical_dt(
-        Eq56Operator::new(&view)
-            .unwrap()
-            .dense_lambda_max()
-            .unwrap(),
-    );
+    let dense = dense_dt56(&view);
     let mut lim = Stability::new(StabilityConfig {
         safety: 0.8,
         ..Default::default()
@@ -109,12 +102,7 @@ fn eq58_exceeds_one_above_the_critical_step_on_a_jittered_layout() {
             .map(|x| (tau * x).sin() + 0.3 * (2.0 * tau * x).cos())
             .collect();
     let view = fx.view();
-    let d56 = Eq56Operator::critical_dt(
-        Eq56Operator::new(&view)
-            .unwrap()
-            .dense_lambda_max()
-            .unwrap(),
-    );
+    let d56 = dense_dt56(&view);
     let above = mpm_dt::stability::bound58(&view, 1.5 * d56, Bound58Reading::Consistent)
         .unwrap()
         .unwrap();
@@ -214,12 +202,7 @@ fn cached_lambda_max_follows_a_collapsing_layout() {
         if p.metrics["lanczos_applications"] > 0.0 {
             updates += 1;
         }
-        let exact = Eq56Operator::critical_dt(
-            Eq56Operator::new(&view)
-                .unwrap()
-                .dense_lambda_max()
-                .unwrap(),
-        );
+        let exact = dense_dt56(&view);
         assert!(p.dt <= exact, "step {s}: proposed {} > exact {exact}", p.dt);
         assert!(
             p.dt >= 0.9 * q.dt,

@@ -2,10 +2,17 @@
 //! nodal masses by eq 7, independent of any solver.
 #![allow(dead_code)]
 
-use mpm_dt::stability::NodalOperator;
+use mpm_dt::stability::{Eq56Operator, NodalOperator};
 use mpm_dt::{Boundary, Grid, NodalStiffness, Shape, View, WeightKind, Weights};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+
+/// The eq 56 critical step of a view from the dense eigenvalue: the reference the tracked
+/// proposals are checked against.
+pub fn dense_dt56(view: &View<'_>) -> f64 {
+    let op = Eq56Operator::new(view).expect("valid view");
+    Eq56Operator::critical_dt(op.dense_lambda_max().expect("dense eigenvalue"))
+}
 
 /// An owned state that lends a [`View`].
 pub struct Fixture {
