@@ -668,13 +668,15 @@ impl Controller {
 }
 
 /// Emits a decision as tracing events: INFO summary, DEBUG per limit and the full record.
+/// Fields a decision does not have (`cause` and `rejected_by` of an accepted step, `dsm`,
+/// `lambda_max`, `bound58` on a step that did not compute them: `None`) are left out of the
+/// event rather than printed as empty strings or NaN.
 fn emit(d: &Decision) {
-    let nan = f64::NAN;
     let outcome = match d.outcome {
         Outcome::Accepted => "accepted",
         Outcome::Rejected => "rejected",
     };
-    let cause = d.cause.map_or("", RejectCause::as_str);
+    let cause = d.cause.map(RejectCause::as_str);
     tracing::info!(
         step = d.step,
         attempt = d.attempt,
@@ -683,10 +685,10 @@ fn emit(d: &Decision) {
         outcome,
         cause,
         binding = d.binding.as_str(),
-        rejected_by = d.rejected_by.as_deref().unwrap_or(""),
-        dsm = d.dsm.unwrap_or(nan),
-        lambda_max = d.lambda_max.unwrap_or(nan),
-        bound58 = d.bound58.unwrap_or(nan),
+        rejected_by = d.rejected_by.as_deref(),
+        dsm = d.dsm,
+        lambda_max = d.lambda_max,
+        bound58 = d.bound58,
         "{outcome}"
     );
     if tracing::enabled!(tracing::Level::DEBUG) {
