@@ -49,6 +49,8 @@
 //! Human table on stdout by default; `--json` prints one JSON document on stdout instead.
 //! Logs go to stderr (`RUST_LOG` filters them, default `warn`).
 
+mod common;
+
 use mpm_dt::controller::Controller;
 use mpm_dt::mpm::ReferenceStepper;
 use mpm_dt::scenario::Scenario;
@@ -428,15 +430,7 @@ fn print_table(path: &str, results: &[PolicyResult], ratios: &[Ratio], large_amp
 }
 
 fn main() -> ExitCode {
-    tracing_subscriber::fmt()
-        .with_writer(std::io::stderr)
-        // Colour codes only on a terminal: a log redirected to a file stays plain text.
-        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
-        .with_env_filter(
-            tracing_subscriber::EnvFilter::try_from_default_env()
-                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn")),
-        )
-        .init();
+    common::init_logs("warn", false);
     let args = match parse_args() {
         Ok(a) => a,
         Err(msg) => {

@@ -28,6 +28,8 @@
 //!   `10⁻⁶ A c`, `σ = 0`, `F = 1`, 4000 steps, unstable when the energy exceeds 10× its start,
 //!   a value is not finite or some `F ≤ 0`), `A = --amplitude` (default `10⁻⁴`).
 
+mod common;
+
 use mpm_dt::scenario::Scenario;
 use mpm_dt::stability::operator::spectral_norm;
 use mpm_dt::stability::{
@@ -191,15 +193,7 @@ fn run(args: &Args) -> Result<Value, Box<dyn std::error::Error>> {
 }
 
 fn main() -> ExitCode {
-    tracing_subscriber::fmt()
-        .with_writer(std::io::stderr)
-        // Colour codes only on a terminal: a log redirected to a file stays plain text.
-        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
-        .with_env_filter(
-            tracing_subscriber::EnvFilter::try_from_default_env()
-                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info")),
-        )
-        .init();
+    common::init_logs("info", false);
     let args = match parse_args() {
         Ok(a) => a,
         Err(e) => {

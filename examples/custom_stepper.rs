@@ -12,6 +12,8 @@
 //! the controller adds its temporal error limit and growth monitor. Nothing else of the
 //! library is needed: no reference solver, no scenario file.
 
+mod common;
+
 use mpm_dt::controller::{Controller, ControllerConfig};
 use mpm_dt::limit::{LimitError, Metrics, Proposal, StepLimit};
 use mpm_dt::{Boundary, Grid, Shape, StepError, Stepper, View, WeightKind, Weights};
@@ -276,15 +278,7 @@ impl StepLimit for UserCfl {
 }
 
 fn main() -> ExitCode {
-    tracing_subscriber::fmt()
-        .with_writer(std::io::stderr)
-        // Colour codes only on a terminal: a log redirected to a file stays plain text.
-        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
-        .with_env_filter(
-            tracing_subscriber::EnvFilter::try_from_default_env()
-                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn")),
-        )
-        .init();
+    common::init_logs("warn", false);
     let json = std::env::args().any(|a| a == "--json");
     let mut solver = UserMpm::new(32, 2, 1.0, 1e-2);
     let limits: Vec<Box<dyn StepLimit>> = vec![Box::new(UserCfl { alpha: 0.5 })];

@@ -31,6 +31,8 @@
 //! With `--fixed-dt DT --steps K` it runs exactly K plain steps of DT without the controller
 //! and also prints the particle state.
 
+mod common;
+
 use mpm_dt::controller::{Controller, Decision, Outcome, Stats};
 use mpm_dt::mpm::ReferenceStepper;
 use mpm_dt::scenario::Scenario;
@@ -125,22 +127,6 @@ fn drive(
         dts.push(dt);
     }
     Run { dts, failure: None }
-}
-
-/// Installs the stderr subscriber: human-readable, or JSON lines with `--log-json`.
-fn init_logs(json: bool) {
-    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
-    let builder = tracing_subscriber::fmt()
-        .with_writer(std::io::stderr)
-        // Colour codes only on a terminal: a log redirected to a file stays plain text.
-        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
-        .with_env_filter(filter);
-    if json {
-        builder.json().with_current_span(true).init();
-    } else {
-        builder.init();
-    }
 }
 
 /// The controller run: stability + temporal error + growth monitor, config from the
@@ -292,7 +278,7 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    init_logs(args.log_json);
+    common::init_logs("info", args.log_json);
     let scenario = match &args.scenario {
         Some(path) => match Scenario::from_file(path) {
             Ok(s) => s,

@@ -83,7 +83,12 @@ fn the_final_error_rises_linearly_with_the_step_on_uniform_gimp() {
     // The energy is dissipated in proportion to the step (USL, first order).
     for k in 0..2 {
         let ratio = drift[k + 1] / drift[k];
-        assert!(drift[k] < 0.0, "α = {}: energy drift {}", alphas[k], drift[k]);
+        assert!(
+            drift[k] < 0.0,
+            "α = {}: energy drift {}",
+            alphas[k],
+            drift[k]
+        );
         assert!(
             (1.8..2.2).contains(&ratio),
             "energy drift α = {} → {}: ratio {ratio}, not ≈ 2",
