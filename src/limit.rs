@@ -29,6 +29,16 @@ pub struct Proposal {
     pub metrics: Metrics,
 }
 
+impl Proposal {
+    /// No opinion: `dt = ∞`, no metrics (a limit that only judges trials).
+    pub fn no_opinion() -> Self {
+        Self {
+            dt: f64::INFINITY,
+            metrics: Metrics::new(),
+        }
+    }
+}
+
 /// Why a trial was rejected.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]

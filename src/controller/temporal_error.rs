@@ -375,10 +375,7 @@ impl StepLimit for TemporalError {
 
     /// No opinion (`∞`): the controller's filter proposes the accuracy-limited step.
     fn propose(&mut self, _state: &View<'_>) -> Result<Proposal, LimitError> {
-        Ok(Proposal {
-            dt: f64::INFINITY,
-            metrics: Metrics::new(),
-        })
+        Ok(Proposal::no_opinion())
     }
 
     fn judge(

@@ -369,10 +369,7 @@ impl StepLimit for RandomError {
         "random_error"
     }
     fn propose(&mut self, _s: &View<'_>) -> Result<Proposal, LimitError> {
-        Ok(Proposal {
-            dt: f64::INFINITY,
-            metrics: Metrics::new(),
-        })
+        Ok(Proposal::no_opinion())
     }
     fn judge(&mut self, _b: &View<'_>, _a: &View<'_>, _dt: f64) -> Result<Judgement, LimitError> {
         let dsm = self.rng.random::<f64>() * self.max;
@@ -398,10 +395,7 @@ impl StepLimit for AlwaysVeto {
         "veto"
     }
     fn propose(&mut self, _s: &View<'_>) -> Result<Proposal, LimitError> {
-        Ok(Proposal {
-            dt: f64::INFINITY,
-            metrics: Metrics::new(),
-        })
+        Ok(Proposal::no_opinion())
     }
     fn judge(&mut self, _b: &View<'_>, _a: &View<'_>, _dt: f64) -> Result<Judgement, LimitError> {
         Ok(Judgement {
