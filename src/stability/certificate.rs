@@ -204,7 +204,7 @@ impl Chain {
 
     /// Eliminates the next node: its diagonal `a`, its couplings `e`, `f` to the previous two
     /// nodes of the chain, and its border couplings `b`; `BORDER` = how many of the border
-    /// columns can be non-zero from here on (2: `B1` only, 4: both). `false` on a
+    /// columns can be non-zero from here on (0: none, 2: `B1` only, 4: both). `false` on a
     /// non-positive or non-finite pivot.
     #[inline(always)]
     fn step<const BORDER: usize>(&mut self, a: f64, e: f64, f: f64, b: [f64; 4]) -> bool {
@@ -431,47 +431,30 @@ fn positive_definite_chain(
         }
         b
     };
-    // LDLᵀ of the pentadiagonal P (A(k,k−1) = e_k, A(k,k−2) = f_k), with r = 1/d:
-    //   g_k = e_k − f_k l_{k−1},  l_k = g_k r_{k−1}  (= L(k,k−1)),
-    //   d_k = a_k − g_k l_k − f_k² r_{k−2},
-    // and the forward solve y_k = b_k − L(k,k−1) y_{k−1} − L(k,k−2) y_{k−2} of the border,
-    // whose Schur complement is S = Q − Σ_k y_k y_kᵀ r_k (Haynsworth: inertia(A) =
-    // inertia(P) + inertia(S)).
-    let (mut r1, mut r2) = (0.0_f64, 0.0_f64); // r_{k−1}, r_{k−2}
-    let mut l1 = 0.0_f64; // L(k−1, k−2)
-    let (mut y1, mut y2) = ([0.0_f64; 2], [0.0_f64; 2]);
-    let mut s = [0.0_f64; 3]; // Σ y yᵀ r: (0,0), (0,1), (1,1)
+    // LDLᵀ of the pentadiagonal P by [`Chain::step`] (A(k,k−1) = e_k, A(k,k−2) = f_k), with
+    // the forward solve of the two border columns on a periodic grid, whose Schur complement
+    // is S = Q − Σ_k y_k y_kᵀ r_k (Haynsworth: inertia(A) = inertia(P) + inertia(S)).
+    let mut chain = Chain::START;
     for k in 0..m {
-        let a = a(k);
         let e = if k >= 1 { -o(k - 1, 0) } else { 0.0 };
         let f = if k >= 2 { -o(k - 2, 1) } else { 0.0 };
-        let g = e - f * l1;
-        let l = g * r1;
-        let d = a - g * l - f * f * r2;
-        if !(d > 0.0 && d.is_finite()) {
+        let ok = if periodic {
+            let [b0, b1] = border(k);
+            chain.step::<2>(a(k), e, f, [b0, b1, 0.0, 0.0])
+        } else {
+            chain.step::<0>(a(k), e, f, [0.0; 4])
+        };
+        if !ok {
             return false;
         }
-        let r = 1.0 / d;
-        if periodic {
-            let lf = f * r2; // L(k, k−2)
-            let b = border(k);
-            let y = [b[0] - l * y1[0] - lf * y2[0], b[1] - l * y1[1] - lf * y2[1]];
-            s[0] += y[0] * y[0] * r;
-            s[1] += y[0] * y[1] * r;
-            s[2] += y[1] * y[1] * r;
-            y2 = y1;
-            y1 = y;
-        }
-        r2 = r1;
-        r1 = r;
-        l1 = l;
     }
     if !periodic {
         return true;
     }
-    let q00 = a(n - 2) - s[0];
-    let q01 = -o(n - 2, 0) - s[1];
-    let q11 = a(n - 1) - s[2];
+    // Σ y yᵀ r of the two columns: entries (0,0), (0,1), (1,1) of `Chain::s`.
+    let q00 = a(n - 2) - chain.s[0];
+    let q01 = -o(n - 2, 0) - chain.s[1];
+    let q11 = a(n - 1) - chain.s[4];
     q00 > 0.0 && q00.is_finite() && q00 * q11 - q01 * q01 > 0.0 && q11.is_finite()
 }
 

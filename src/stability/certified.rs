@@ -408,13 +408,10 @@ impl CertifiedTracker {
         if let Some(known) = proven_above {
             bracket.lo = bracket.lo.max(known);
         } else if let Some(rho) = hint.filter(|&r| r >= bracket.lo && self.anchor.is_some()) {
-            let mu = shift(rho, 1.0 + margin);
             bracket.lo = bracket.lo.max(rho);
-            if bracket.certifies(mu) {
-                hi = Some(mu);
+            hi = bracket.try_at(shift(rho, 1.0 + margin));
+            if hi.is_some() {
                 vector_ritz = Some(rho);
-            } else {
-                bracket.lo = bracket.lo.max(mu);
             }
         }
         // 2. A warm Lanczos update.
@@ -424,12 +421,7 @@ impl CertifiedTracker {
             vector_ritz = Some(est.lambda_b);
             self.set_vector(op);
             bracket.lo = bracket.lo.max(est.lambda_b);
-            let mu = shift(bracket.lo, 1.0 + margin);
-            if bracket.certifies(mu) {
-                hi = Some(mu);
-            } else {
-                bracket.lo = mu;
-            }
+            hi = bracket.try_at(shift(bracket.lo, 1.0 + margin));
         }
         // 3. Geometric growth of the shift.
         if hi.is_none() {
@@ -456,12 +448,7 @@ impl CertifiedTracker {
                 vector_ritz = Some(cold.lambda_b);
                 self.set_vector(op);
                 bracket.lo = cold.lambda_b;
-                let mu = shift(bracket.lo, 1.0 + margin);
-                if bracket.certifies(mu) {
-                    hi = Some(mu);
-                } else {
-                    bracket.lo = mu;
-                }
+                hi = bracket.try_at(shift(bracket.lo, 1.0 + margin));
             }
         }
         let hi = match hi {
@@ -589,22 +576,28 @@ impl<T: Fn(f64) -> bool> Bracket<T> {
         (self.test)(mu)
     }
 
+    /// Tests `mu`: `Some(mu)` when it certifies `λmax < mu`, else `None` with `lo` raised to
+    /// `mu` (a failed shift is a lower bound, up to rounding).
+    fn try_at(&mut self, mu: f64) -> Option<f64> {
+        if self.certifies(mu) {
+            Some(mu)
+        } else {
+            self.lo = self.lo.max(mu);
+            None
+        }
+    }
+
     /// Tries `base (1 + 2^k margin)` for `k` in `ks` (`k = 0`: `base` itself) until one
     /// certifies, raising `lo` to each that fails: the first certified shift, or `None`.
     fn grow(&mut self, base: f64, ks: std::ops::RangeInclusive<u32>) -> Option<f64> {
-        for k in ks {
+        ks.into_iter().find_map(|k| {
             let factor = if k == 0 {
                 1.0
             } else {
                 1.0 + self.margin * f64::from(1u32 << k)
             };
-            let mu = shift(base, factor);
-            if self.certifies(mu) {
-                return Some(mu);
-            }
-            self.lo = mu;
-        }
-        None
+            self.try_at(shift(base, factor))
+        })
     }
 
     /// Bisects `[lo, hi]` until `hi ≤ (1 + margin) lo` (at most 64 tests in all), the first
@@ -612,10 +605,8 @@ impl<T: Fn(f64) -> bool> Bracket<T> {
     fn bisect(&mut self, mut hi: f64, start: Option<f64>) -> f64 {
         let mut mu = start.unwrap_or(0.5 * (self.lo + hi));
         while hi > (1.0 + self.margin) * self.lo && self.lo > 0.0 && self.factorisations < 64 {
-            if self.certifies(mu) {
-                hi = mu;
-            } else {
-                self.lo = mu;
+            if let Some(certified) = self.try_at(mu) {
+                hi = certified;
             }
             mu = 0.5 * (self.lo + hi);
         }
