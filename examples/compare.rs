@@ -13,6 +13,12 @@
 //!   `--alpha A,B,...` replaces the four multipliers (e.g. to add one that takes as many
 //!   steps as mpm-dt); the step and error ratios are printed against 0.3 and 0.4 when
 //!   they are in the list.
+//! - `matched alpha=A`: the fixed multiplier that takes as many steps as mpm-dt (found by a
+//!   few runs: a first guess from mpm-dt's mean step and the sound-speed step at `t = 0`,
+//!   then secant and bisection on the step count; when no multiplier lands exactly on
+//!   mpm-dt's count, the closest run with *more* steps). It answers whether the controller's
+//!   choice of steps beats the best fixed rule of the same cost, separately from how many
+//!   steps it takes. Absent when mpm-dt blew up.
 //! - `mpm-dt`: the standard controller, [`Controller::standard`] with the scenario's
 //!   `controller` configuration (else the defaults): the `SoundSpeed` cap with `α = 1`
 //!   (never binding on GIMP layouts at rest; it protects against particles crossing cells
@@ -264,6 +270,59 @@ fn run_fixed(
     ))
 }
 
+/// The fixed multiplier taking as many steps as `ours` (module docs): `None` when `ours`
+/// blew up or took no step. A run that blows up ends the search (the fixed rule at
+/// mpm-dt's mean step is not stable) and is the result.
+fn run_matched(
+    scenario: &Scenario,
+    reference: &Reference<'_>,
+    ours: &PolicyResult,
+) -> Result<Option<PolicyResult>, String> {
+    let (target, Some(dt_mean)) = (ours.steps, ours.dt_mean) else {
+        return Ok(None);
+    };
+    if ours.blew_up || target == 0 {
+        return Ok(None);
+    }
+    let start = scenario.build().map_err(|e| e.to_string())?;
+    let unit = SoundSpeed::new(SoundSpeedConfig { alpha: 1.0 })
+        .and_then(|l| l.dt(&start.view()))
+        .map_err(|e| e.to_string())?;
+    // Steps fall as α grows: `more` took more steps than the target, `fewer` fewer.
+    let (mut more, mut fewer): (Option<f64>, Option<f64>) = (None, None);
+    let mut best: Option<(f64, PolicyResult)> = None;
+    let mut alpha = dt_mean / unit;
+    for _ in 0..16 {
+        let r = run_fixed(scenario, reference, alpha)?;
+        if r.blew_up {
+            best = Some((alpha, r));
+            break;
+        }
+        let steps = r.steps;
+        // Keep the run closest to the target from above (at least mpm-dt's cost).
+        if steps >= target && best.as_ref().is_none_or(|(_, b)| steps < b.steps) {
+            best = Some((alpha, r));
+        }
+        if steps == target {
+            break;
+        }
+        if steps > target {
+            more = Some(more.map_or(alpha, |m: f64| m.max(alpha)));
+        } else {
+            fewer = Some(fewer.map_or(alpha, |f: f64| f.min(alpha)));
+        }
+        alpha = match (more, fewer) {
+            (Some(m), Some(f)) if f > m => 0.5 * (m + f),
+            (Some(_), Some(_)) => break,
+            _ => alpha * steps as f64 / target as f64,
+        };
+    }
+    Ok(best.map(|(alpha, mut r)| {
+        r.policy = format!("matched alpha={alpha:.4}");
+        r
+    }))
+}
+
 /// mpm-dt's controller.
 fn run_controller(
     scenario: &Scenario,
@@ -343,10 +402,17 @@ fn ratios(results: &[PolicyResult]) -> Vec<Ratio> {
     let Some(ours) = results.iter().find(|r| r.policy == "mpm-dt") else {
         return Vec::new();
     };
-    [(0.3, 2.1), (0.4, 1.6)]
+    // Against 0.3 and 0.4 with the step goals, and against the fixed rule of the
+    // same cost, where the goal is only "at least as many steps" (by construction).
+    let fixed = [(0.3, 2.1), (0.4, 1.6)].map(|(alpha, goal)| (format!("alpha={alpha}"), goal));
+    let matched = results
         .iter()
-        .filter_map(|&(alpha, goal)| {
-            let name = format!("alpha={alpha}");
+        .find(|r| r.policy.starts_with("matched"))
+        .map(|r| (r.policy.clone(), 1.0));
+    fixed
+        .into_iter()
+        .chain(matched)
+        .filter_map(|(name, goal)| {
             let r = results.iter().find(|r| r.policy == name)?;
             Some(Ratio {
                 against: name,
@@ -371,7 +437,7 @@ fn opt(v: Option<f64>, width: usize) -> String {
 fn print_table(path: &str, results: &[PolicyResult], ratios: &[Ratio], large_amplitude: bool) {
     println!("scenario {path}");
     println!(
-        "{:<10} {:>7} {:>8} {:>7} {:>10} {:>12} {:>12} {:>12} {:>9} {:>10}",
+        "{:<21} {:>7} {:>8} {:>7} {:>10} {:>12} {:>12} {:>12} {:>9} {:>10}",
         "policy",
         "steps",
         "rejected",
@@ -385,7 +451,7 @@ fn print_table(path: &str, results: &[PolicyResult], ratios: &[Ratio], large_amp
     );
     for r in results {
         println!(
-            "{:<10} {:>7} {:>8} {:>7} {:>10.4} {} {} {} {:>9.3} {}",
+            "{:<21} {:>7} {:>8} {:>7} {:>10.4} {} {} {} {:>9.3} {}",
             r.policy,
             r.steps,
             r.rejected,
@@ -405,6 +471,18 @@ fn print_table(path: &str, results: &[PolicyResult], ratios: &[Ratio], large_amp
         let verdict = match (q.stable, q.steps_ratio) {
             (false, _) => "fixed policy blew up: goal does not apply".to_string(),
             (true, None) => "mpm-dt blew up".to_string(),
+            (true, Some(s)) if q.against.starts_with("matched") => format!(
+                "{:.3}× mpm-dt's steps, error ratio {} (raw {}) → mpm-dt {}",
+                s,
+                q.error_ratio.map_or("null".into(), |e| format!("{e:.3}")),
+                q.error_ratio_raw
+                    .map_or("null".into(), |e| format!("{e:.3}")),
+                match q.error_ratio {
+                    Some(e) if e <= 1.0 => "at least as accurate at the same cost",
+                    Some(_) => "LESS accurate at the same cost",
+                    None => "not comparable (no exact solution)",
+                }
+            ),
             (true, Some(s)) => {
                 let err_ok = q.error_ratio.is_none_or(|e| e <= 1.0);
                 format!(
@@ -472,6 +550,16 @@ fn main() -> ExitCode {
         Err(e) => {
             eprintln!("error: mpm-dt: {e}");
             return ExitCode::from(1);
+        }
+    }
+    if let Some(ours) = results.iter().find(|r| r.policy == "mpm-dt") {
+        match run_matched(&scenario, &reference, ours) {
+            Ok(Some(r)) => results.push(r),
+            Ok(None) => {}
+            Err(e) => {
+                eprintln!("error: matched alpha: {e}");
+                return ExitCode::from(1);
+            }
         }
     }
     let ratios = ratios(&results);
