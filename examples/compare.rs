@@ -13,12 +13,19 @@
 //!   `--alpha A,B,...` replaces the four multipliers (e.g. to add one that takes as many
 //!   steps as mpm-dt); the step and error ratios are printed against 0.3 and 0.4 when
 //!   they are in the list.
-//! - `matched alpha=A`: the fixed multiplier that takes as many steps as mpm-dt (found by a
-//!   few runs: a first guess from mpm-dt's mean step and the sound-speed step at `t = 0`,
-//!   then secant and bisection on the step count; when no multiplier lands exactly on
-//!   mpm-dt's count, the closest run with *more* steps). It answers whether the controller's
-//!   choice of steps beats the best fixed rule of the same cost, separately from how many
-//!   steps it takes. Absent when mpm-dt blew up.
+//! - `matched alpha=A`: the fixed multiplier that takes as many steps as mpm-dt (`run_matched`:
+//!   a first guess from mpm-dt's mean step and the sound-speed step at `t = 0`, proportional
+//!   corrections and bisection on the step count; a run that blows up bounds α from above).
+//!   A whole interval of α gives the same count, with errors that differ by a few tenths of
+//!   a percent, so once a multiplier hits the count `N`, 24 more around it (`α (1 + k/8N)`,
+//!   `k = ±1 … ±12`) are run and the row is the most accurate with that count; their errors are printed as a
+//!   range (`matched_same_step_count` in the JSON). When no multiplier lands on the count,
+//!   the row is the closest stable run with *more* steps; with none stable at or above it,
+//!   the first run that blew up. It asks whether the controller places its steps better
+//!   than a fixed rule with as many steps (not the same cost: a controlled step costs more
+//!   than a bare one, README "Controller overhead"). `--no-matched` skips it; without an
+//!   mpm-dt run to match, or when the search fails, a warning is logged and the row is
+//!   absent.
 //! - `mpm-dt`: the standard controller, [`Controller::standard`] with the scenario's
 //!   `controller` configuration (else the defaults): the `SoundSpeed` cap with `α = 1`
 //!   (never binding on GIMP layouts at rest; it protects against particles crossing cells
@@ -73,7 +80,7 @@ const ENERGY_GROWTH: f64 = 10.0;
 const ALPHAS: [f64; 4] = [0.3, 0.4, 0.5, 0.9];
 
 const USAGE: &str = "usage: compare --scenario FILE [--json] \
-[--tracking certified|lanczos|lanczos-cached] [--alpha A,B,...]";
+[--tracking certified|lanczos|lanczos-cached] [--alpha A,B,...] [--no-matched]";
 
 /// Command-line options.
 struct Args {
@@ -83,6 +90,8 @@ struct Args {
     tracking: Option<(String, Tracking)>,
     /// The fixed multipliers (`--alpha`, default [`ALPHAS`]).
     alphas: Vec<f64>,
+    /// Whether to search the fixed rule with mpm-dt's step count (`--no-matched`: not).
+    matched: bool,
 }
 
 fn parse_args() -> Result<Args, String> {
@@ -90,6 +99,7 @@ fn parse_args() -> Result<Args, String> {
     let mut json = false;
     let mut tracking = None;
     let mut alphas = ALPHAS.to_vec();
+    let mut matched = true;
     let mut it = std::env::args().skip(1);
     while let Some(a) = it.next() {
         match a.as_str() {
@@ -115,6 +125,7 @@ fn parse_args() -> Result<Args, String> {
                     })
                     .collect::<Result<_, _>>()?;
             }
+            "--no-matched" => matched = false,
             "-h" | "--help" => return Err(USAGE.into()),
             other => return Err(format!("unknown argument {other}\n{USAGE}")),
         }
@@ -124,6 +135,7 @@ fn parse_args() -> Result<Args, String> {
         json,
         tracking,
         alphas,
+        matched,
     })
 }
 
@@ -270,14 +282,42 @@ fn run_fixed(
     ))
 }
 
-/// The fixed multiplier taking as many steps as `ours` (module docs): `None` when `ours`
-/// blew up or took no step. A run that blows up ends the search (the fixed rule at
-/// mpm-dt's mean step is not stable) and is the result.
+/// The fixed rule with mpm-dt's step count (module docs): its row, and the synchronised
+/// errors of every sampled multiplier that took exactly that many steps.
+struct Matched {
+    result: PolicyResult,
+    /// `(α, velocity_error_linf)` of the runs with exactly mpm-dt's step count.
+    same_count: Vec<(f64, Option<f64>)>,
+}
+
+/// Offsets (in units of `1/N`, `N` mpm-dt's step count) of the multipliers sampled around
+/// one that hit the count, `k/8` for `k = ±1 … ±12`: the multipliers with `N` steps span
+/// about `α/N`, and the first hit may lie at either end.
+const SPREAD: [f64; 24] = {
+    let mut s = [0.0; 24];
+    let mut k = 0;
+    while k < 12 {
+        s[2 * k] = -((k + 1) as f64) / 8.0;
+        s[2 * k + 1] = (k + 1) as f64 / 8.0;
+        k += 1;
+    }
+    s
+};
+
+/// The fixed multiplier taking as many steps as `ours` (module docs): `Ok(None)` when `ours`
+/// blew up or took no step. The search runs at most 16 multipliers: the first guess from
+/// mpm-dt's mean step and the sound-speed step at `t = 0`, proportional corrections
+/// (steps ∝ 1/α) until the target is bracketed, then bisection. A run that blows up bounds α
+/// from above like one with too few steps. The row is the closest stable run from above
+/// (at least mpm-dt's step count); when one hits the count `N` exactly, the multipliers
+/// `α (1 + x/N)`, `x` in [`SPREAD`], are run too and the row is the most accurate of those
+/// with the same count. With no stable run at or above the count, the row is the first run that
+/// blew up.
 fn run_matched(
     scenario: &Scenario,
     reference: &Reference<'_>,
     ours: &PolicyResult,
-) -> Result<Option<PolicyResult>, String> {
+) -> Result<Option<Matched>, String> {
     let (target, Some(dt_mean)) = (ours.steps, ours.dt_mean) else {
         return Ok(None);
     };
@@ -288,38 +328,78 @@ fn run_matched(
     let unit = SoundSpeed::new(SoundSpeedConfig { alpha: 1.0 })
         .and_then(|l| l.dt(&start.view()))
         .map_err(|e| e.to_string())?;
-    // Steps fall as α grows: `more` took more steps than the target, `fewer` fewer.
+    let mut alpha = dt_mean / unit;
+    // Steps fall as α grows: `more` took more steps than the target (stable), `fewer` took
+    // fewer or blew up.
     let (mut more, mut fewer): (Option<f64>, Option<f64>) = (None, None);
     let mut best: Option<(f64, PolicyResult)> = None;
-    let mut alpha = dt_mean / unit;
+    let mut first_blowup: Option<(f64, PolicyResult)> = None;
+    let mut hit = None;
     for _ in 0..16 {
+        if !(alpha.is_finite() && alpha > 0.0) {
+            return Err(format!("no valid multiplier to try (α = {alpha})"));
+        }
         let r = run_fixed(scenario, reference, alpha)?;
-        if r.blew_up {
-            best = Some((alpha, r));
-            break;
-        }
-        let steps = r.steps;
-        // Keep the run closest to the target from above (at least mpm-dt's cost).
-        if steps >= target && best.as_ref().is_none_or(|(_, b)| steps < b.steps) {
-            best = Some((alpha, r));
-        }
-        if steps == target {
-            break;
-        }
-        if steps > target {
-            more = Some(more.map_or(alpha, |m: f64| m.max(alpha)));
-        } else {
+        let (steps, blew_up) = (r.steps, r.blew_up);
+        if blew_up {
             fewer = Some(fewer.map_or(alpha, |f: f64| f.min(alpha)));
+            if first_blowup.is_none() {
+                first_blowup = Some((alpha, r));
+            }
+        } else {
+            if steps == target {
+                hit = Some(alpha);
+            }
+            // Keep the run closest to the target from above (at least mpm-dt's count).
+            if steps >= target && best.as_ref().is_none_or(|(_, b)| steps < b.steps) {
+                best = Some((alpha, r));
+            }
+            if hit.is_some() {
+                break;
+            }
+            if steps > target {
+                more = Some(more.map_or(alpha, |m: f64| m.max(alpha)));
+            } else {
+                fewer = Some(fewer.map_or(alpha, |f: f64| f.min(alpha)));
+            }
         }
         alpha = match (more, fewer) {
-            (Some(m), Some(f)) if f > m => 0.5 * (m + f),
-            (Some(_), Some(_)) => break,
+            (Some(m), Some(f)) => {
+                let mid = 0.5 * (m + f);
+                if !(m < mid && mid < f) {
+                    break; // the bracket has collapsed: no multiplier hits the count
+                }
+                mid
+            }
+            // A blow-up has no step count to correct by.
+            _ if blew_up => 0.5 * alpha,
             _ => alpha * steps as f64 / target as f64,
         };
     }
-    Ok(best.map(|(alpha, mut r)| {
-        r.policy = format!("matched alpha={alpha:.4}");
-        r
+    let mut same_count = Vec::new();
+    if let Some(a0) = hit {
+        if let Some((_, r)) = best.as_ref() {
+            same_count.push((a0, r.velocity_error_linf));
+        }
+        for k in SPREAD {
+            let a = a0 * (1.0 + k / target as f64);
+            let r = run_fixed(scenario, reference, a)?;
+            if r.blew_up || r.steps != target {
+                continue;
+            }
+            same_count.push((a, r.velocity_error_linf));
+            let better = match (&best, r.velocity_error_linf) {
+                (Some((_, b)), Some(e)) => b.velocity_error_linf.is_none_or(|be| e < be),
+                _ => false,
+            };
+            if better {
+                best = Some((a, r));
+            }
+        }
+    }
+    Ok(best.or(first_blowup).map(|(alpha, mut result)| {
+        result.policy = format!("matched alpha={alpha:.4}");
+        Matched { result, same_count }
     }))
 }
 
@@ -382,6 +462,8 @@ struct Ratio {
     /// Whether the fixed policy stayed stable (the goal only applies then).
     stable: bool,
     steps_ratio: Option<f64>,
+    /// Whether the policy took exactly mpm-dt's number of steps.
+    same_step_count: bool,
     goal: f64,
     /// mpm-dt's final velocity error divided by the policy's (≤ 1 is "equal or better"),
     /// synchronised velocities.
@@ -402,8 +484,8 @@ fn ratios(results: &[PolicyResult]) -> Vec<Ratio> {
     let Some(ours) = results.iter().find(|r| r.policy == "mpm-dt") else {
         return Vec::new();
     };
-    // Against 0.3 and 0.4 with the issue's step goals, and against the fixed rule of the
-    // same cost, where the goal is only "at least as many steps" (by construction).
+    // Against 0.3 and 0.4 with the issue's step goals, and against the fixed rule with
+    // mpm-dt's step count, where the goal is only "at least as many steps" (by construction).
     let fixed = [(0.3, 2.1), (0.4, 1.6)].map(|(alpha, goal)| (format!("alpha={alpha}"), goal));
     let matched = results
         .iter()
@@ -419,6 +501,7 @@ fn ratios(results: &[PolicyResult]) -> Vec<Ratio> {
                 stable: !r.blew_up,
                 steps_ratio: (!ours.blew_up && ours.steps > 0)
                     .then(|| r.steps as f64 / ours.steps as f64),
+                same_step_count: r.steps == ours.steps,
                 goal,
                 error_ratio: ratio(ours.velocity_error_linf, r.velocity_error_linf),
                 error_ratio_raw: ratio(ours.velocity_error_linf_raw, r.velocity_error_linf_raw),
@@ -471,18 +554,27 @@ fn print_table(path: &str, results: &[PolicyResult], ratios: &[Ratio], large_amp
         let verdict = match (q.stable, q.steps_ratio) {
             (false, _) => "fixed policy blew up: goal does not apply".to_string(),
             (true, None) => "mpm-dt blew up".to_string(),
-            (true, Some(s)) if q.against.starts_with("matched") => format!(
-                "{:.3}× mpm-dt's steps, error ratio {} (raw {}) → mpm-dt {}",
-                s,
-                q.error_ratio.map_or("null".into(), |e| format!("{e:.3}")),
-                q.error_ratio_raw
-                    .map_or("null".into(), |e| format!("{e:.3}")),
-                match q.error_ratio {
-                    Some(e) if e <= 1.0 => "at least as accurate at the same cost",
-                    Some(_) => "LESS accurate at the same cost",
-                    None => "not comparable (no exact solution)",
+            (true, Some(s)) if q.against.starts_with("matched") => {
+                let errors = format!(
+                    "error ratio {} (raw {})",
+                    q.error_ratio.map_or("null".into(), |e| format!("{e:.3}")),
+                    q.error_ratio_raw
+                        .map_or("null".into(), |e| format!("{e:.3}")),
+                );
+                if q.same_step_count {
+                    let verdict = match q.error_ratio {
+                        Some(e) if e <= 1.0 => "at least as accurate with as many steps",
+                        Some(_) => "LESS accurate with as many steps",
+                        None => "not comparable (no exact solution)",
+                    };
+                    format!("same step count, {errors} → mpm-dt {verdict}")
+                } else {
+                    format!(
+                        "no stable fixed multiplier hits mpm-dt's step count; the closest stable \
+                         one takes {s:.3}× its steps, {errors}"
+                    )
                 }
-            ),
+            }
             (true, Some(s)) => {
                 let err_ok = q.error_ratio.is_none_or(|e| e <= 1.0);
                 format!(
@@ -552,13 +644,17 @@ fn main() -> ExitCode {
             return ExitCode::from(1);
         }
     }
-    if let Some(ours) = results.iter().find(|r| r.policy == "mpm-dt") {
-        match run_matched(&scenario, &reference, ours) {
-            Ok(Some(r)) => results.push(r),
-            Ok(None) => {}
-            Err(e) => {
-                eprintln!("error: matched alpha: {e}");
-                return ExitCode::from(1);
+    // The fixed rule with mpm-dt's step count; a failure to find one is reported, not fatal.
+    let mut same_count = Vec::new();
+    if args.matched {
+        if let Some(ours) = results.iter().find(|r| r.policy == "mpm-dt") {
+            match run_matched(&scenario, &reference, ours) {
+                Ok(Some(m)) => {
+                    same_count = m.same_count;
+                    results.push(m.result);
+                }
+                Ok(None) => tracing::warn!("no matched multiplier: mpm-dt blew up or took no step"),
+                Err(e) => tracing::warn!(error = %e, "no matched multiplier"),
             }
         }
     }
@@ -578,10 +674,23 @@ fn main() -> ExitCode {
             "policies": results,
             "ratios": ratios,
             "tracking": args.tracking.as_ref().map_or("scenario", |t| t.0.as_str()),
+            "matched_same_step_count": same_count
+                .iter()
+                .map(|&(alpha, error)| serde_json::json!({"alpha": alpha, "velocity_error_linf": error}))
+                .collect::<Vec<_>>(),
         });
         println!("{doc}");
     } else {
         print_table(&args.scenario, &results, &ratios, large_amplitude);
+        let errors: Vec<f64> = same_count.iter().filter_map(|&(_, e)| e).collect();
+        if errors.len() > 1 {
+            let lo = errors.iter().copied().fold(f64::INFINITY, f64::min);
+            let hi = errors.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            println!(
+                "fixed rules with mpm-dt's step count: {} multipliers, error {lo:.4e} … {hi:.4e}",
+                errors.len()
+            );
+        }
     }
     ExitCode::SUCCESS
 }
