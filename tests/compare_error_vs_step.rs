@@ -1,21 +1,24 @@
-//! Why issue 6's "≥ 1.6× fewer steps than α = 0.4 **at equal or better final error**" cannot
-//! hold on the uniform GIMP layouts of the suite, for any step policy: there the final
-//! velocity error of the reference solver *rises linearly with the step*.
+//! Why issue 6's "≥ 1.6× fewer steps than α = 0.4 **at equal or better final error**" is out
+//! of reach on the uniform GIMP layouts of the suite: there the final velocity error of the
+//! reference solver *grows with the step*, at first order, so every fixed rule with 1.6×
+//! fewer steps than α = 0.4 ends above α = 0.4's error, and mpm-dt, which is as accurate as
+//! the fixed rule with its step count (README "Performance"), does too.
 //!
 //! The USL step of the paper is first order in time through its grid velocity (eqs 19, 24:
 //! the velocity that drives `σ` and `x` is `v_i + dt a_i`, with `v_i` the eq 17 projection
 //! of the particle velocities; `src/synchronized_velocity.rs`, "What it does not fix"), and it
 //! dissipates energy at a rate proportional to `dt` (the known USL behaviour; Bardenhagen,
 //! "Energy conservation error in the material point method for solid mechanics", J. Comput.
-//! Phys. 180, 2002). So a run with a longer mean step has a larger error, whoever chooses
-//! the step: a fixed α taking as many steps as mpm-dt ends with the same error
-//! (README "Performance").
+//! Phys. 180, 2002).
 //!
-//! This test pins both facts on `scenarios/suite/gimp_uniform_ppc2.json` with fixed
+//! This test pins the trend on `scenarios/suite/gimp_uniform_ppc2.json` with fixed
 //! multipliers of the sound-speed step, run as `examples/compare.rs` runs them: the
-//! synchronised final velocity error increases with α, by first-order increments, and the
-//! energy drift is proportional to α. `α = 0.64` is the largest mean step that takes
-//! 1.6× fewer steps than `α = 0.4`.
+//! synchronised final velocity error increases with α, by increments that double with the
+//! step (first order), up to α = 0.64, the *smallest* multiplier that takes 1.6× fewer steps
+//! than α = 0.4; and the energy drift is proportional to α. It is a trend, not a law at fine
+//! scale: neighbouring multipliers scatter by up to 2 % (α = 0.64: 1.689·10⁻⁴, 0.68: 1.687,
+//! 0.69: 1.715; `compare --alpha`), as much as the 1.5–1.9 % being explained, which is why
+//! the README compares mpm-dt with the best fixed rule of its own step count.
 
 use mpm_dt::mpm::ReferenceStepper;
 use mpm_dt::scenario::Scenario;
@@ -53,7 +56,7 @@ fn run(scenario: &Scenario, alpha: f64) -> (f64, f64) {
 }
 
 #[test]
-fn the_final_error_rises_linearly_with_the_step_on_uniform_gimp() {
+fn the_final_error_grows_with_the_step_at_first_order_on_uniform_gimp() {
     let scenario = Scenario::from_file(SCENARIO).expect("suite scenario parses");
     let alphas = [0.1, 0.2, 0.4, 0.64];
     let runs: Vec<(f64, f64)> = alphas.iter().map(|&a| run(&scenario, a)).collect();
@@ -61,8 +64,8 @@ fn the_final_error_rises_linearly_with_the_step_on_uniform_gimp() {
     let drift: Vec<f64> = runs.iter().map(|r| r.1).collect();
     eprintln!("alpha {alphas:?}\nerror {err:?}\ndrift {drift:?}");
 
-    // The error increases with the step; the largest mean step that takes 1.6× fewer steps
-    // than α = 0.4 is already worse than α = 0.4.
+    // The error increases with the step; the smallest multiplier that takes 1.6× fewer
+    // steps than α = 0.4 is already worse than α = 0.4.
     for k in 0..alphas.len() - 1 {
         assert!(
             err[k] < err[k + 1],
@@ -77,8 +80,16 @@ fn the_final_error_rises_linearly_with_the_step_on_uniform_gimp() {
     // doubling it from 0.1 to 0.2 added (2 for a first-order term, 4 for a second-order one).
     let growth = (err[2] - err[1]) / (err[1] - err[0]);
     assert!(
-        (1.3..3.0).contains(&growth),
+        (1.4..2.8).contains(&growth),
         "error increments grow by {growth} per doubling of the step"
+    );
+    // And the slope from 0.4 to 0.64 is that of 0.1 to 0.2 (first order; a second-order
+    // term would make it (0.4 + 0.64)/(0.1 + 0.2) = 3.5 times as steep).
+    let slope = |a: usize, b: usize| (err[b] - err[a]) / (alphas[b] - alphas[a]);
+    let steepening = slope(2, 3) / slope(0, 1);
+    assert!(
+        (0.6..1.7).contains(&steepening),
+        "slope 0.4 → 0.64 is {steepening} × the slope 0.1 → 0.2"
     );
     // The energy is dissipated in proportion to the step (USL, first order).
     for k in 0..2 {
