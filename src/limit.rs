@@ -20,7 +20,9 @@ use std::collections::BTreeMap;
 /// Named diagnostic numbers a limit computed (e.g. `"lambda_max"`, `"bound58"`, `"dsm"`).
 pub type Metrics = BTreeMap<String, f64>;
 
-/// A limit's proposal for the next step.
+/// A limit's proposal for the next step. (`Proposal::default()` has `dt = 0`, a proposal
+/// the controller cannot take; a limit without an opinion returns
+/// [`Proposal::no_opinion`].)
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Proposal {
     /// The largest step this limit allows; `f64::INFINITY` when it has no opinion.
@@ -30,7 +32,9 @@ pub struct Proposal {
 }
 
 impl Proposal {
-    /// No opinion: `dt = ∞`, no metrics (a limit that only judges trials).
+    /// No opinion: `dt = ∞`, no metrics (a limit that only judges trials). Not
+    /// `Proposal::default()`, whose `dt` is `0`.
+    #[must_use]
     pub fn no_opinion() -> Self {
         Self {
             dt: f64::INFINITY,

@@ -695,7 +695,7 @@ fn emit(d: &Decision) {
         for l in &d.limits {
             tracing::debug!(
                 limit = l.name.as_str(),
-                proposal = l.proposal.unwrap_or(f64::INFINITY),
+                proposal = l.proposal,
                 verdict = ?l.verdict,
                 metrics = ?l.metrics,
                 "limit"

@@ -211,27 +211,34 @@ fn stiffness_weights<Tg: Fn(f64) -> f64>(
     k_w: &mut [f64],
     lanes: &mut [f64; 4],
 ) {
-    let n = k_w.len().min(f.len()).min(vol0.len()).min(mass.len());
-    let whole = n - n % 4;
-    for c in (0..whole).step_by(4) {
-        let (Ok(f), Ok(v), Ok(m), Ok(k)) = (
-            <&[f64; 4]>::try_from(&f[c..c + 4]),
-            <&[f64; 4]>::try_from(&vol0[c..c + 4]),
-            <&[f64; 4]>::try_from(&mass[c..c + 4]),
-            <&mut [f64; 4]>::try_from(&mut k_w[c..c + 4]),
-        ) else {
-            return;
-        };
+    debug_assert!(f.len() == k_w.len() && vol0.len() == k_w.len() && mass.len() == k_w.len());
+    let mut out = k_w.chunks_exact_mut(4);
+    let (fs, vs, ms) = (
+        f.chunks_exact(4),
+        vol0.chunks_exact(4),
+        mass.chunks_exact(4),
+    );
+    let tails = (fs.remainder(), vs.remainder(), ms.remainder());
+    for (((kc, fc), vc), mc) in (&mut out).zip(fs).zip(vs).zip(ms) {
         for l in 0..4 {
-            let (kl, c2) = stiffness_weight(tangent(f[l]), f[l], v[l], m[l]);
-            k[l] = kl;
+            let (k, c2) = stiffness_weight(tangent(fc[l]), fc[l], vc[l], mc[l]);
+            kc[l] = k;
             lanes[l] = greater(c2, lanes[l]);
         }
     }
-    for i in whole..n {
-        let (k, c2) = stiffness_weight(tangent(f[i]), f[i], vol0[i], mass[i]);
-        k_w[i] = k;
-        lanes[i % 4] = greater(c2, lanes[i % 4]);
+    // The last particles, `i mod 4 = l` as in the chunks.
+    let (ft, vt, mt) = tails;
+    for (l, (((k, &fl), &vl), &ml)) in out
+        .into_remainder()
+        .iter_mut()
+        .zip(ft)
+        .zip(vt)
+        .zip(mt)
+        .enumerate()
+    {
+        let (kl, c2) = stiffness_weight(tangent(fl), fl, vl, ml);
+        *k = kl;
+        lanes[l] = greater(c2, lanes[l]);
     }
 }
 

@@ -409,10 +409,8 @@ fn positive_definite_chain(
     // Leading block P: every node on a fixed grid; nodes 0..n−2 on a periodic one, whose two
     // last nodes form the border Q (they carry every wrapped coupling).
     let m = if periodic { n - 2 } else { n };
+    // Called on periodic grids only.
     let border = |k: usize| -> [f64; 2] {
-        if !periodic {
-            return [0.0; 2];
-        }
         // A(n−2, k) and A(n−1, k) for k < n − 2.
         let mut b = [0.0; 2];
         if k == n - 4 {
