@@ -52,8 +52,14 @@ fn info_events_leave_out_absent_fields() {
     assert!(accepted.len() > 5, "too few accepted events:\n{text}");
     for line in &accepted {
         assert!(!line.contains("NaN"), "NaN printed: {line}");
-        assert!(!line.contains("cause="), "cause on an accepted step: {line}");
-        assert!(!line.contains("rejected_by="), "rejected_by on an accepted step: {line}");
+        assert!(
+            !line.contains("cause="),
+            "cause on an accepted step: {line}"
+        );
+        assert!(
+            !line.contains("rejected_by="),
+            "rejected_by on an accepted step: {line}"
+        );
         assert!(line.contains(" dt="), "no dt: {line}");
         assert!(line.contains("lambda_max="), "no lambda_max: {line}");
     }
