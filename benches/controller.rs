@@ -35,6 +35,9 @@
 //! `benches/stability.rs`; the estimators' in `benches/estimators.rs`.
 #![allow(missing_docs)]
 
+#[path = "../tests/common/without_summary.rs"]
+mod without_summary;
+
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use mpm_dt::controller::{
     Controller, ControllerConfig, GrowthConfig, GrowthMonitor, TemporalError, TemporalErrorConfig,
@@ -47,6 +50,7 @@ use mpm_dt::stability::{
 use mpm_dt::{Boundary, Grid, Shape, StepLimit, Stepper};
 use std::hint::black_box;
 use std::time::Duration;
+use without_summary::WithoutSummary;
 
 fn stepper(particles: usize) -> ReferenceStepper {
     let ppc = 2;
@@ -73,37 +77,6 @@ fn sound_speed_cap() -> SoundSpeed {
     match SoundSpeed::new(SoundSpeedConfig { alpha: 1.0 }) {
         Ok(l) => l,
         Err(e) => panic!("bench set-up failed: {e}"),
-    }
-}
-
-/// The reference solver declining the pass summary (`Stepper::provide_summary`), so that
-/// every limit scans its views: the summary's net effect, measured in the same run.
-struct WithoutSummary(ReferenceStepper);
-
-impl Stepper for WithoutSummary {
-    fn time(&self) -> f64 {
-        self.0.time()
-    }
-    fn step_count(&self) -> u64 {
-        self.0.step_count()
-    }
-    fn try_step(&mut self, dt: f64) -> Result<(), mpm_dt::StepError> {
-        self.0.try_step(dt)
-    }
-    fn accept(&mut self) -> Result<(), mpm_dt::StepError> {
-        self.0.accept()
-    }
-    fn reject(&mut self) {
-        self.0.reject()
-    }
-    fn view(&self) -> mpm_dt::View<'_> {
-        self.0.view()
-    }
-    fn trial_view(&self) -> Option<mpm_dt::View<'_>> {
-        self.0.trial_view()
-    }
-    fn provide_nodal_stiffness(&mut self, on: bool) -> bool {
-        self.0.provide_nodal_stiffness(on)
     }
 }
 

@@ -195,21 +195,11 @@ impl Reference<'_> {
         let t = stepper.time();
         let steps = stepper.step_count();
         let view = stepper.view();
-        // Only with an exact solution to compare with (it builds the view's weights).
-        let errors = self
-            .scenario
-            .exact_solution()
-            .map(|w| w.velocity_errors(&self.x0, &view, half_step));
+        let (synchronised, raw) =
+            common::velocity_errors(self.scenario, &self.x0, &view, half_step);
         let finite = |e: f64| e.is_finite().then_some(e);
-        let velocity_error_linf_raw = errors.as_ref().and_then(|(_, raw)| finite(*raw));
-        let velocity_error_linf = match errors {
-            Some((Ok(e), _)) => finite(e),
-            Some((Err(e), _)) => {
-                tracing::error!(error = %e, "synchronised velocity");
-                None
-            }
-            None => None,
-        };
+        let velocity_error_linf = synchronised.and_then(finite);
+        let velocity_error_linf_raw = raw.and_then(finite);
         let drift = (stepper.total_energy() - self.e0) / self.e0;
         PolicyResult {
             policy,

@@ -338,19 +338,8 @@ fn main() -> ExitCode {
         Some(_) => 0.0,
         None => closing_half_step(&decisions).unwrap_or(0.0),
     };
-    // Only with an exact solution to compare with (it builds the view's weights).
-    let errors = scenario
-        .exact_solution()
-        .map(|w| w.velocity_errors(&x0, &view, half_step));
-    let velocity_error_linf_raw = errors.as_ref().map(|(_, raw)| *raw);
-    let velocity_error_linf = match errors {
-        Some((Ok(e), _)) => Some(e),
-        Some((Err(e), _)) => {
-            tracing::error!(error = %e, "synchronised velocity");
-            None
-        }
-        None => None,
-    };
+    let (velocity_error_linf, velocity_error_linf_raw) =
+        common::velocity_errors(&scenario, &x0, &view, half_step);
     let n = run.dts.len();
     let dt_min = run.dts.iter().copied().fold(f64::INFINITY, f64::min);
     let dt_max = run.dts.iter().copied().fold(0.0, f64::max);

@@ -2,11 +2,14 @@
 //! library's own, bit for bit, its observed fields equal the lazily computed ones, and a
 //! controlled run takes the same decisions with and without it.
 
+#[path = "common/without_summary.rs"]
+mod without_summary;
+
 use mpm_dt::controller::{total_energy, Controller, ControllerConfig, Decision};
-use mpm_dt::mpm::ReferenceStepper;
 use mpm_dt::scenario::Scenario;
 use mpm_dt::stability::SoundSpeed;
 use mpm_dt::{Stepper, View};
+use without_summary::WithoutSummary;
 
 /// Scenarios covering both shapes, both boundaries, both materials, particle counts that
 /// are not multiples of 4 and that span several blocks of the pass (256 particles).
@@ -21,36 +24,6 @@ const SCENARIOS: [&str; 4] = [
 
 fn bits(v: &[f64]) -> Vec<u64> {
     v.iter().map(|x| x.to_bits()).collect()
-}
-
-/// A reference solver that declines the summary, so that every limit scans its views.
-struct WithoutSummary(ReferenceStepper);
-
-impl Stepper for WithoutSummary {
-    fn time(&self) -> f64 {
-        self.0.time()
-    }
-    fn step_count(&self) -> u64 {
-        self.0.step_count()
-    }
-    fn try_step(&mut self, dt: f64) -> Result<(), mpm_dt::StepError> {
-        self.0.try_step(dt)
-    }
-    fn accept(&mut self) -> Result<(), mpm_dt::StepError> {
-        self.0.accept()
-    }
-    fn reject(&mut self) {
-        self.0.reject()
-    }
-    fn view(&self) -> View<'_> {
-        self.0.view()
-    }
-    fn trial_view(&self) -> Option<View<'_>> {
-        self.0.trial_view()
-    }
-    fn provide_nodal_stiffness(&mut self, on: bool) -> bool {
-        self.0.provide_nodal_stiffness(on)
-    }
 }
 
 #[test]

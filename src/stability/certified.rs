@@ -570,16 +570,11 @@ impl<T: Fn(f64) -> bool> Bracket<T> {
         }
     }
 
-    /// Whether the test at `mu` certifies `λmax < mu` (counted).
-    fn certifies(&mut self, mu: f64) -> bool {
-        self.factorisations += 1;
-        (self.test)(mu)
-    }
-
-    /// Tests `mu`: `Some(mu)` when it certifies `λmax < mu`, else `None` with `lo` raised to
-    /// `mu` (a failed shift is a lower bound, up to rounding).
+    /// Tests `mu` (counted): `Some(mu)` when it certifies `λmax < mu`, else `None` with `lo`
+    /// raised to `mu` (a failed shift is a lower bound, up to rounding).
     fn try_at(&mut self, mu: f64) -> Option<f64> {
-        if self.certifies(mu) {
+        self.factorisations += 1;
+        if (self.test)(mu) {
             Some(mu)
         } else {
             self.lo = self.lo.max(mu);

@@ -14,8 +14,8 @@
 //! consecutive nodes with [`LANES`] independent accumulators of each sum, maximum and flag,
 //! every branch written as a select; a chunk is 4-wide vector instructions (explicit AVX2
 //! intrinsics in that build, the portable lanes otherwise; the band entries `K_N(i, i+1)`,
-//! `K_N(i, i+2)` are interleaved in storage and deinterleaved by shuffles), so the divisions of the power step and the two reduction
-//! chains no longer serialise the pass. The first and last two nodes (and the remainder of
+//! `K_N(i, i+2)` are interleaved in storage and deinterleaved by shuffles), so the
+//! divisions of the power step and the two reduction chains no longer serialise the pass. The first and last two nodes (and the remainder of
 //! the interior) go through the scalar wrapped row. The lanes are summed at the end, so the
 //! quotient's rounding differs from a sequential sum by a few units in the last place (it is
 //! deterministic: the same inputs give the same bits, on every CPU, since the AVX2 build uses
