@@ -26,7 +26,9 @@
 //!   (a Rayleigh-quotient pass per proposal, an `LDLᵀ` certificate every 20: the mean
 //!   per-step cost); `propose_certified_served_only` — the served pass alone (no
 //!   certificate); `propose_certified_every_step` — a certificate at every proposal;
-//!   `propose_certified_served_same_state` — the served pass on one state, repeatedly.
+//!   `propose_certified_served_same_state` — the served pass on one state, repeatedly;
+//!   `propose_certified_served_after_step` — the served pass on the state the solver's step
+//!   (untimed) has just written, as in a run: the λmax update of issue 4's goal.
 //!
 //! It also prints the applications of `B` per step over 30 steps (the periodic cold restarts
 //! included), from which the average per-step cost follows as a multiple of `operator_apply`.
@@ -168,6 +170,9 @@ fn bench(c: &mut Criterion) {
     // `Stability::propose` alternates between two states one step apart.
     let mut sk = s.clone();
     sk.provide_nodal_stiffness(true);
+    // As the controller asks: the pass summary vouches for the nodal masses, which the
+    // served pass then does not scan.
+    sk.provide_summary(true);
     sk.try_step(dt).expect("stable step");
     sk.accept().expect("trial pending");
     let mut sk_next = sk.clone();
@@ -242,6 +247,27 @@ fn bench(c: &mut Criterion) {
         l.propose(&view_k).expect("valid");
         g.bench_function("propose_certified_served_same_state", |b| {
             b.iter(|| black_box(l.propose(&view_k).expect("valid")))
+        });
+    }
+    {
+        // The served pass as a run meets it: on the state the solver's step has just written
+        // (its `K_N` and masses fresh from the pass, the mode out of cache), the step itself
+        // untimed.
+        let mut l = Stability::new(certified(u32::MAX)).expect("valid config");
+        let mut run = sk.clone();
+        l.propose(&run.view()).expect("valid");
+        g.bench_function("propose_certified_served_after_step", |b| {
+            b.iter_custom(|iters| {
+                let mut total = Duration::ZERO;
+                for _ in 0..iters {
+                    run.try_step(dt).expect("stable step");
+                    run.accept().expect("trial pending");
+                    let start = Instant::now();
+                    black_box(l.propose(&run.view()).expect("valid"));
+                    total += start.elapsed();
+                }
+                total
+            })
         });
     }
     g.finish();

@@ -305,12 +305,13 @@ fn finalize_band(ctx: &Ctx<'_>, band: &mut [[f64; 4]], c2_ref: f64, to: &mut Sta
     // Sized once, then written in place (a loop the compiler vectorises; `push` kept a
     // capacity check per node).
     k.diag.resize(n_nodes, 0.0);
-    k.off.resize(n_nodes, [0.0; 2]);
+    k.upper1.resize(n_nodes, 0.0);
+    k.upper2.resize(n_nodes, 0.0);
     let slots = &mut band[offset..offset + n_nodes];
-    for ((slot, d), o) in slots.iter_mut().zip(&mut k.diag).zip(&mut k.off) {
+    let bands = k.diag.iter_mut().zip(&mut k.upper1).zip(&mut k.upper2);
+    for (slot, ((d, u1), u2)) in slots.iter_mut().zip(bands) {
         let [kd, o1, o2, _] = std::mem::take(slot);
-        *d = kd;
-        *o = [o1, o2];
+        (*d, *u1, *u2) = (kd, o1, o2);
     }
     k.c2_ref = c2_ref;
     to.stiffness_valid = true;

@@ -64,7 +64,7 @@ use super::error::StabilityError;
 use super::lambda_max::{LambdaEstimate, LambdaMaxTracker, LanczosConfig, SymmetricOperator};
 use super::nodal::NodalOperator;
 use super::operator::Eq56Operator;
-use super::power_pass::power_pass;
+use super::power_pass::{active_masses_positive, power_pass};
 use crate::stepper::View;
 
 /// Settings of [`CertifiedTracker`].
@@ -265,14 +265,22 @@ impl CertifiedTracker {
             // ρ_anchor`), so the pass's diagonal test is conservative; a hit is re-checked
             // exactly against the served value below.
             let lambda_floor = anchor.ratio * (1.0 - self.config.drop_tol) * anchor.rayleigh;
-            let pass = power_pass(
-                k,
-                view.node_mass,
-                view.node_active,
-                &mut anchor.z,
-                anchor.last_rayleigh,
-                lambda_floor,
-            );
+            // The pass assumes positive active masses: vouched for by a trusted summary,
+            // scanned otherwise (a failure anchors, whose validation reports it).
+            let masses_ok = view.trusted_summary().is_some()
+                || active_masses_positive(view.node_mass, view.node_active);
+            let pass = masses_ok
+                .then(|| {
+                    power_pass(
+                        k,
+                        view.node_mass,
+                        view.node_active,
+                        &mut anchor.z,
+                        anchor.last_rayleigh,
+                        lambda_floor,
+                    )
+                })
+                .flatten();
             if let Some(p) = pass {
                 let due = anchor.served.saturating_add(1) >= self.config.certify_every;
                 let dropped = p.rayleigh < (1.0 - self.config.drop_tol) * anchor.rayleigh;

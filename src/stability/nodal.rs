@@ -39,8 +39,8 @@ use crate::stepper::View;
 
 /// The nodal form `C = M^{1/2} K_N M^{1/2}` of the eq 56 operator on one state (module docs).
 ///
-/// `C` is stored as three bands on the nodes ([`NodalStiffness`]'s layout): the diagonal and
-/// the couplings to the next node and the one after, wrapped on periodic grids. `K_N` itself
+/// `C` is stored as three bands on the nodes: the diagonal and the couplings to the next node
+/// and the one after (as pairs per node), wrapped on periodic grids. `K_N` itself
 /// is read from the view when the stepper provides it and assembled here only otherwise.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct NodalOperator {
@@ -76,12 +76,13 @@ fn scale_bands(
     c_off.resize(n, [0.0; 2]);
     // Rows with both neighbours in range need no wrap test (every row but the last two).
     let inner = n.saturating_sub(2);
-    for (i, (c, kk)) in c_off[..inner].iter_mut().zip(&k.off[..inner]).enumerate() {
+    let uppers = k.upper1[..inner].iter().zip(&k.upper2[..inner]);
+    for (i, (c, (&u1, &u2))) in c_off[..inner].iter_mut().zip(uppers).enumerate() {
         let (s0, s1, s2) = (scale[i], scale[i + 1], scale[i + 2]);
-        *c = [kk[0] * s0 * s1, kk[1] * s0 * s2];
+        *c = [u1 * s0 * s1, u2 * s0 * s2];
     }
     for i in inner..n {
-        for (o, (c, kk)) in c_off[i].iter_mut().zip(k.off[i]).enumerate() {
+        for (o, (c, kk)) in c_off[i].iter_mut().zip(k.upper(i)).enumerate() {
             if let Some(j) = neighbour(n, periodic, i, o + 1) {
                 *c = kk * scale[i] * scale[j];
             }
@@ -132,9 +133,10 @@ impl NodalOperator {
         match view.nodal_stiffness {
             Some(k) => {
                 check_nodes(view)?;
-                if !(all_finite(&k.diag) && all_finite(k.off.as_flattened())) {
-                    let values = k.diag.iter().chain(k.off.iter().flatten());
-                    if let Some((index, &value)) = values.enumerate().find(|(_, v)| !v.is_finite())
+                if !(all_finite(&k.diag) && all_finite(&k.upper1) && all_finite(&k.upper2)) {
+                    // `index` counts through the diagonal, then `upper1`, then `upper2`.
+                    if let Some((index, &value)) =
+                        k.values().enumerate().find(|(_, v)| !v.is_finite())
                     {
                         return Err(StabilityError::InvalidField {
                             field: "nodal_stiffness",
@@ -158,11 +160,11 @@ impl NodalOperator {
                 f64::from_bits(s.to_bits() & (a as u64).wrapping_neg())
             }));
         let k = match view.nodal_stiffness {
-            Some(k) if k.diag.len() == n && k.off.len() == n => k,
+            Some(k) if k.has_len(n) => k,
             Some(k) => {
                 return Err(StabilityError::LengthMismatch {
                     field: "nodal_stiffness",
-                    len: k.diag.len().min(k.off.len()),
+                    len: k.diag.len().min(k.upper1.len()).min(k.upper2.len()),
                     expected: n,
                 })
             }
@@ -185,13 +187,16 @@ impl NodalOperator {
     ) -> Result<(), StabilityError> {
         let NodalStiffness {
             diag,
-            off,
+            upper1,
+            upper2,
             c2_ref: c2_out,
         } = &mut self.assembled;
-        diag.clear();
-        diag.resize(n, 0.0);
-        off.clear();
-        off.resize(n, [0.0; 2]);
+        for band in [&mut *diag, &mut *upper1, &mut *upper2] {
+            band.clear();
+            band.resize(n, 0.0);
+        }
+        // `upper[o][i] = K_N(i, i+o+1)`.
+        let upper = [upper1, upper2];
         let w = view.weights;
         let mut c2_ref = 0.0_f64;
         let (modulus, density) = (view.tangent_modulus, view.density);
@@ -211,9 +216,9 @@ impl NodalOperator {
                     diag[i0] += k0 * d0;
                     diag[i1] += k1 * d1;
                     diag[i2] += k * d2 * d2;
-                    off[i0][0] += k0 * d1;
-                    off[i0][1] += k0 * d2;
-                    off[i1][0] += k1 * d2;
+                    upper[0][i0] += k0 * d1;
+                    upper[1][i0] += k0 * d2;
+                    upper[0][i1] += k1 * d2;
                     continue;
                 }
             }
@@ -237,7 +242,7 @@ impl NodalOperator {
                             value: nodes[b] as f64,
                         },
                     )?;
-                    off[i][o] += kda * db;
+                    upper[o][i] += kda * db;
                 }
             }
         }

@@ -13,10 +13,11 @@
 //! **Layout of the loop.** The interior nodes `2 … n−3` run in chunks of [`LANES`]
 //! consecutive nodes with [`LANES`] independent accumulators of each sum, maximum and flag,
 //! every branch written as a select; a chunk is 4-wide vector instructions (explicit AVX2
-//! intrinsics in that build, the portable lanes otherwise; the band entries `K_N(i, i+1)`,
-//! `K_N(i, i+2)` are interleaved in storage and deinterleaved by shuffles), so the
-//! divisions of the power step and the two reduction chains no longer serialise the pass. The first and last two nodes (and the remainder of
-//! the interior) go through the scalar wrapped row. The lanes are summed at the end, so the
+//! intrinsics in that build, the portable lanes otherwise; the four off-diagonal entries of
+//! the chunk's rows, `K_N(j, j+1)`, `K_N(j, j+2)`, `K_N(j−1, j)` and `K_N(j−2, j)`, are four
+//! unaligned loads from the bands `upper1` and `upper2`), so the divisions of the power step
+//! and the two reduction chains no longer serialise the pass. The first and last two nodes
+//! (and the remainder of the interior) go through the scalar wrapped row. The lanes are summed at the end, so the
 //! quotient's rounding differs from a sequential sum by a few units in the last place (it is
 //! deterministic: the same inputs give the same bits, on every CPU, since the AVX2 build uses
 //! no FMA and the baseline build rounds each operation the same way).
@@ -52,7 +53,10 @@ pub(super) struct Pass {
 /// What the pass reads at every node besides the mode.
 struct Inputs<'a> {
     kd: &'a [f64],
-    ko: &'a [[f64; 2]],
+    /// `K_N(i, i+1)`.
+    k1: &'a [f64],
+    /// `K_N(i, i+2)`.
+    k2: &'a [f64],
     mass: &'a [f64],
     active: &'a [bool],
     /// `1/ρ_prev`, the power step's scaling.
@@ -66,7 +70,6 @@ struct Inputs<'a> {
 struct Lane {
     num: f64,
     den: f64,
-    min_mass: f64,
     above: bool,
     stale: bool,
 }
@@ -75,7 +78,6 @@ impl Lane {
     const EMPTY: Lane = Lane {
         num: 0.0,
         den: 0.0,
-        min_mass: f64::INFINITY,
         above: false,
         stale: false,
     };
@@ -86,7 +88,6 @@ impl Lane {
     fn node(&mut self, inp: &Inputs<'_>, zi: f64, y: f64, kd: f64, m: f64, a: bool) -> f64 {
         self.num += zi * y;
         self.den += if a { m * zi * zi } else { 0.0 };
-        self.min_mass = self.min_mass.min(if a { m } else { f64::INFINITY });
         self.above |= a & (kd > inp.bound * m);
         self.stale |= !a & (zi != 0.0);
         let step = y * inp.inv_rho / m;
@@ -101,7 +102,6 @@ impl Lane {
         Lane {
             num: self.num + other.num,
             den: self.den + other.den,
-            min_mass: self.min_mass.min(other.min_mass),
             above: self.above | other.above,
             stale: self.stale | other.stale,
         }
@@ -114,12 +114,12 @@ impl Inputs<'_> {
     fn wrapped_row(&self, z: &[f64], i: usize) -> f64 {
         let n = z.len() as isize;
         let w = |j: isize| j.rem_euclid(n) as usize;
-        let (ii, ko) = (i as isize, self.ko);
+        let (ii, k1, k2) = (i as isize, self.k1, self.k2);
         self.kd[i] * z[i]
-            + ko[i][0] * z[w(ii + 1)]
-            + ko[i][1] * z[w(ii + 2)]
-            + ko[w(ii - 1)][0] * z[w(ii - 1)]
-            + ko[w(ii - 2)][1] * z[w(ii - 2)]
+            + k1[i] * z[w(ii + 1)]
+            + k2[i] * z[w(ii + 2)]
+            + k1[w(ii - 1)] * z[w(ii - 1)]
+            + k2[w(ii - 2)] * z[w(ii - 2)]
     }
 
     /// One scalar node through the wrapped row: its power step's value (not written).
@@ -129,11 +129,23 @@ impl Inputs<'_> {
     }
 }
 
+/// Whether every active node has a positive mass (`NaN` is not positive): the precondition
+/// of [`power_pass`] that a trusted [`crate::PassSummary`] guarantees, checked by this scan
+/// otherwise.
+pub(super) fn active_masses_positive(mass: &[f64], active: &[bool]) -> bool {
+    // A fold without early exit, so that it vectorises.
+    mass.iter()
+        .zip(active)
+        .fold(true, |ok, (&m, &a)| ok & (!a | (m > 0.0)))
+}
+
 /// The pass (module docs): the quotient and checks of the mode `z` on entry, and `z`
-/// overwritten by its power step. `None` when it cannot be trusted (sizes, under 4 nodes, a
-/// node that became inactive under a non-zero `z_i`, a non-finite or non-positive value) —
-/// the caller then anchors, whose full validation reports errors and which replaces `z`.
-/// `z` is untouched only when the sizes do not fit.
+/// overwritten by its power step. The caller makes sure that every active mass is positive
+/// ([`active_masses_positive`]; a trusted pass summary guarantees it): the pass does not
+/// test it (it did, at 10 % of its time). `None` when it cannot be trusted (sizes, under 4
+/// nodes, a node that became inactive under a non-zero `z_i`, a non-finite or negative
+/// quotient) — the caller then anchors, whose full validation reports errors and which
+/// replaces `z`. `z` is untouched only when the sizes do not fit.
 ///
 /// The power step `z ← M⁻¹K_N z` is the power iteration on `C = M^{1/2} K_N M^{1/2}` in the
 /// variable `z = M^{1/2}u` (`C u = M^{1/2} K_N z`); for a positive semi-definite `C` the
@@ -148,12 +160,13 @@ pub(super) fn power_pass(
     bound: f64,
 ) -> Option<Pass> {
     let n = z.len();
-    if k.diag.len() != n || k.off.len() != n || mass.len() != n || active.len() != n || n < 4 {
+    if !k.has_len(n) || mass.len() != n || active.len() != n || n < 4 {
         return None;
     }
     let inputs = Inputs {
         kd: &k.diag[..n],
-        ko: &k.off[..n],
+        k1: &k.upper1[..n],
+        k2: &k.upper2[..n],
         mass: &mass[..n],
         active: &active[..n],
         inv_rho: if rho_prev > 0.0 { 1.0 / rho_prev } else { 1.0 },
@@ -161,7 +174,7 @@ pub(super) fn power_pass(
     };
     let lane = dispatch(&inputs, z);
     let rayleigh = lane.num / lane.den;
-    let valid = !lane.stale && rayleigh.is_finite() && rayleigh >= 0.0 && lane.min_mass > 0.0;
+    let valid = !lane.stale && rayleigh.is_finite() && rayleigh >= 0.0;
     valid.then_some(Pass {
         rayleigh,
         diagonal_above: lane.above,
@@ -236,7 +249,6 @@ struct Interior {
 struct Lanes {
     num: [f64; LANES],
     den: [f64; LANES],
-    min_mass: [f64; LANES],
     above: [f64; LANES],
     stale: [f64; LANES],
 }
@@ -245,7 +257,6 @@ impl Lanes {
     const EMPTY: Lanes = Lanes {
         num: [0.0; LANES],
         den: [0.0; LANES],
-        min_mass: [f64::INFINITY; LANES],
         above: [f64::NEG_INFINITY; LANES],
         stale: [0.0; LANES],
     };
@@ -256,7 +267,6 @@ impl Lanes {
             .map(|l| Lane {
                 num: self.num[l],
                 den: self.den[l],
-                min_mass: self.min_mass[l],
                 above: self.above[l] > 0.0,
                 stale: self.stale[l] > 0.0,
             })
@@ -276,7 +286,10 @@ fn chunks(inp: &Inputs<'_>, z: &mut [f64]) -> Interior {
         let Ok(zw) = <[f64; LANES + 4]>::try_from(&z[i - 2..i + LANES + 2]) else {
             break;
         };
-        let Ok(kow) = <&[[f64; 2]; LANES + 2]>::try_from(&inp.ko[i - 2..i + LANES]) else {
+        let Ok(k1w) = <&[f64; LANES + 1]>::try_from(&inp.k1[i - 1..i + LANES]) else {
+            break;
+        };
+        let Ok(k2w) = <&[f64; LANES + 2]>::try_from(&inp.k2[i - 2..i + LANES]) else {
             break;
         };
         let Ok(kd) = <&[f64; LANES]>::try_from(&inp.kd[i..i + LANES]) else {
@@ -290,19 +303,18 @@ fn chunks(inp: &Inputs<'_>, z: &mut [f64]) -> Interior {
         };
         let mut y = [0.0; LANES];
         for l in 0..LANES {
-            // Node i + l: z_j is zw[l + 2], K row j is kow[l + 2].
+            // Node j = i + l: z_j is zw[l + 2], K(j, j+1) is k1w[l + 1], K(j, j+2) k2w[l + 2].
             y[l] = kd[l] * zw[l + 2]
-                + kow[l + 2][0] * zw[l + 3]
-                + kow[l + 2][1] * zw[l + 4]
-                + kow[l + 1][0] * zw[l + 1]
-                + kow[l][1] * zw[l];
+                + k1w[l + 1] * zw[l + 3]
+                + k2w[l + 2] * zw[l + 4]
+                + k1w[l] * zw[l + 1]
+                + k2w[l] * zw[l];
         }
         let mut out = [0.0; LANES];
         for l in 0..LANES {
             let (zi, al) = (zw[l + 2], a[l]);
             acc.num[l] += zi * y[l];
             acc.den[l] += if al { m[l] * zi * zi } else { 0.0 };
-            acc.min_mass[l] = acc.min_mass[l].min(if al { m[l] } else { f64::INFINITY });
             acc.above[l] = acc.above[l].max(if al {
                 kd[l] - inp.bound * m[l]
             } else {
@@ -332,19 +344,18 @@ mod avx2 {
     use std::arch::x86_64::*;
 
     /// The interior chunks (as [`super::chunks`], the same operations in the same order, so
-    /// the same bits): one 4-wide vector per quantity. The band entries of rows
-    /// `i−2 … i+3` are 12 consecutive values `e₀ o₁ e₂ o₃ …` (`e` = `K(r, r+1)`,
-    /// `o` = `K(r, r+2)`); four overlapping loads and in-lane unpacks with a cross-lane
-    /// permute deinterleave the four band vectors each chunk needs.
+    /// the same bits): one 4-wide vector per quantity; the four band vectors of a chunk at
+    /// `i` are unaligned loads of `upper1` from `i` and `i − 1` and of `upper2` from `i` and
+    /// `i − 2`.
     ///
     /// # Safety
     /// The CPU must support AVX2.
     #[target_feature(enable = "avx2")]
     pub(super) fn chunks(inp: &Inputs<'_>, z: &mut [f64]) -> Interior {
         let n = z.len();
-        let ko = inp.ko.as_flattened();
-        let (kd, mass, active) = (inp.kd, inp.mass, inp.active);
-        if ko.len() != 2 * n || kd.len() != n || mass.len() != n || active.len() != n {
+        let (kd, k1, k2, mass, active) = (inp.kd, inp.k1, inp.k2, inp.mass, inp.active);
+        let lengths = [kd.len(), k1.len(), k2.len(), mass.len(), active.len()];
+        if lengths.iter().any(|&len| len != n) {
             // Not reached (the caller checked the sizes); the portable chunks check their own.
             return super::chunks(inp, z);
         }
@@ -352,22 +363,19 @@ mod avx2 {
         let bound = _mm256_set1_pd(inp.bound);
         let inv_rho = _mm256_set1_pd(inp.inv_rho);
         let zero = _mm256_setzero_pd();
-        let inf = _mm256_set1_pd(f64::INFINITY);
         let neg_inf = _mm256_set1_pd(f64::NEG_INFINITY);
         let abs_mask = _mm256_castsi256_pd(_mm256_set1_epi64x(i64::MAX));
         let mut num = zero;
         let mut den = zero;
-        let mut min_mass = inf;
         let mut above = neg_inf;
         let mut stale = zero;
         let mut pending = zero;
         let mut i = 2;
         while i + LANES + 2 <= n {
             // SAFETY: i ≥ 2 and i + LANES + 2 ≤ n, and every slice was checked above to hold
-            // n (2n for `ko`) values: the chunk reads z[i−2 .. i+6], ko[2(i−2) .. 2(i−2)+12]
-            // (< 2(i + LANES) ≤ 2n), kd, mass and active [i .. i+4], and writes z[i−4 .. i]
-            // (i ≥ 6 when a chunk is pending), after its reads; `zp` is the only pointer
-            // into `z` used here.
+            // n values: the chunk reads z[i−2 .. i+6], k1[i−1 .. i+4], k2[i−2 .. i+4], kd, mass
+            // and active [i .. i+4], and writes z[i−4 .. i] (i ≥ 6 when a chunk is pending),
+            // after its reads; `zp` is the only pointer into `z` used here.
             unsafe {
                 let zc = zp.add(i - 2);
                 let (zm2, zm1, z0, z1, z2) = (
@@ -377,18 +385,12 @@ mod avx2 {
                     _mm256_loadu_pd(zc.add(3)),
                     _mm256_loadu_pd(zc.add(4)),
                 );
-                let kp = ko.as_ptr().add(2 * (i - 2));
-                let c = _mm256_loadu_pd(kp); // e0 o1 e2 o3
-                let d = _mm256_loadu_pd(kp.add(2)); // e2 o3 e4 o5
-                let a = _mm256_loadu_pd(kp.add(4)); // e4 o5 e6 o7
-                let e = _mm256_loadu_pd(kp.add(6)); // e6 o7 e8 o9
-                let b = _mm256_loadu_pd(kp.add(8)); // e8 o9 e10 o11
-                const ORDER: i32 = 0b11_01_10_00; // (0, 2, 1, 3)
-                                                  // K(j, j+1), K(j, j+2) of rows j = i … i+3; K(j−1, j), K(j−2, j).
-                let k1 = _mm256_permute4x64_pd::<ORDER>(_mm256_unpacklo_pd(a, b));
-                let k2 = _mm256_permute4x64_pd::<ORDER>(_mm256_unpackhi_pd(a, b));
-                let km1 = _mm256_permute4x64_pd::<ORDER>(_mm256_unpacklo_pd(d, e));
-                let km2 = _mm256_permute4x64_pd::<ORDER>(_mm256_unpackhi_pd(c, a));
+                // K(j, j+1), K(j, j+2) of rows j = i … i+3; K(j−1, j), K(j−2, j).
+                let (u1, u2) = (k1.as_ptr().add(i), k2.as_ptr().add(i));
+                let k1v = _mm256_loadu_pd(u1);
+                let k2v = _mm256_loadu_pd(u2);
+                let km1 = _mm256_loadu_pd(u1.sub(1));
+                let km2 = _mm256_loadu_pd(u2.sub(2));
                 let kdv = _mm256_loadu_pd(kd.as_ptr().add(i));
                 let m = _mm256_loadu_pd(mass.as_ptr().add(i));
                 let ap = active.as_ptr().add(i);
@@ -403,15 +405,14 @@ mod avx2 {
                     _mm256_setzero_si256(),
                 ));
                 let mut y = _mm256_mul_pd(kdv, z0);
-                y = _mm256_add_pd(y, _mm256_mul_pd(k1, z1));
-                y = _mm256_add_pd(y, _mm256_mul_pd(k2, z2));
+                y = _mm256_add_pd(y, _mm256_mul_pd(k1v, z1));
+                y = _mm256_add_pd(y, _mm256_mul_pd(k2v, z2));
                 y = _mm256_add_pd(y, _mm256_mul_pd(km1, zm1));
                 y = _mm256_add_pd(y, _mm256_mul_pd(km2, zm2));
                 num = _mm256_add_pd(num, _mm256_mul_pd(z0, y));
                 let mzz = _mm256_mul_pd(_mm256_mul_pd(m, z0), z0);
                 den = _mm256_add_pd(den, _mm256_blendv_pd(zero, mzz, act));
-                // (x, acc) operand order: a NaN x leaves acc, as `f64::min/max` ignore NaN.
-                min_mass = _mm256_min_pd(_mm256_blendv_pd(inf, m, act), min_mass);
+                // (x, acc) operand order: a NaN x leaves acc, as `f64::max` ignores NaN.
                 let gap = _mm256_sub_pd(kdv, _mm256_mul_pd(bound, m));
                 above = _mm256_max_pd(_mm256_blendv_pd(neg_inf, gap, act), above);
                 let za = _mm256_and_pd(z0, abs_mask);
@@ -430,7 +431,6 @@ mod avx2 {
         unsafe {
             _mm256_storeu_pd(acc.num.as_mut_ptr(), num);
             _mm256_storeu_pd(acc.den.as_mut_ptr(), den);
-            _mm256_storeu_pd(acc.min_mass.as_mut_ptr(), min_mass);
             _mm256_storeu_pd(acc.above.as_mut_ptr(), above);
             _mm256_storeu_pd(acc.stale.as_mut_ptr(), stale);
             _mm256_storeu_pd(last.as_mut_ptr(), pending);
@@ -454,9 +454,8 @@ mod tests {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let k = NodalStiffness {
             diag: (0..n).map(|_| rng.random_range(0.5..2.0)).collect(),
-            off: (0..n)
-                .map(|_| [rng.random_range(-1.0..0.0), rng.random_range(-0.2..0.2)])
-                .collect(),
+            upper1: (0..n).map(|_| rng.random_range(-1.0..0.0)).collect(),
+            upper2: (0..n).map(|_| rng.random_range(-0.2..0.2)).collect(),
             c2_ref: 1.0,
         };
         let mass: Vec<f64> = (0..n).map(|_| rng.random_range(0.1..1.0)).collect();
@@ -485,7 +484,8 @@ mod tests {
     ) -> (f64, bool, bool, Vec<f64>) {
         let inp = Inputs {
             kd: &k.diag,
-            ko: &k.off,
+            k1: &k.upper1,
+            k2: &k.upper2,
             mass,
             active,
             inv_rho: 1.0 / rho_prev,
@@ -520,7 +520,8 @@ mod tests {
             let p = power_pass(&k, &mass, &active, &mut fast, rho_prev, bound).expect("valid pass");
             let inputs = Inputs {
                 kd: &k.diag,
-                ko: &k.off,
+                k1: &k.upper1,
+                k2: &k.upper2,
                 mass: &mass,
                 active: &active,
                 inv_rho: 1.0 / rho_prev,
