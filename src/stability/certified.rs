@@ -64,7 +64,7 @@ use super::error::StabilityError;
 use super::lambda_max::{LambdaEstimate, LambdaMaxTracker, LanczosConfig, SymmetricOperator};
 use super::nodal::NodalOperator;
 use super::operator::Eq56Operator;
-use super::power_pass::{active_masses_positive, power_pass};
+use super::power_pass::{active_masses_positive, power_pass, FLUSH_RELATIVE};
 use crate::stepper::View;
 
 /// Settings of [`CertifiedTracker`].
@@ -152,6 +152,10 @@ pub struct Anchor {
     pub last_rayleigh: f64,
     /// Proposals served since the anchor.
     pub served: u32,
+    /// Power-step values below this are stored as zero: [`FLUSH_RELATIVE`] times the largest
+    /// component of the mode the last pass started from (`power_pass`, "Flushed tails").
+    #[serde(default)]
+    pub flush_below: f64,
     /// The certified upper bound over the anchor's Rayleigh quotient (`1 + margin` when the
     /// first certificate passed): served values are this ratio times their quotient.
     pub ratio: f64,
@@ -278,10 +282,12 @@ impl CertifiedTracker {
                         &mut anchor.z,
                         anchor.last_rayleigh,
                         lambda_floor,
+                        anchor.flush_below,
                     )
                 })
                 .flatten();
             if let Some(p) = pass {
+                anchor.flush_below = FLUSH_RELATIVE * p.max_abs;
                 let due = anchor.served.saturating_add(1) >= self.config.certify_every;
                 let dropped = p.rayleigh < (1.0 - self.config.drop_tol) * anchor.rayleigh;
                 let served = anchor.ratio * p.rayleigh;
@@ -534,6 +540,7 @@ impl CertifiedTracker {
                 .zip(op.scale())
                 .map(|(u, s)| u * s),
         );
+        anchor.flush_below = FLUSH_RELATIVE * anchor.z.iter().fold(0.0_f64, |m, z| m.max(z.abs()));
     }
 }
 
