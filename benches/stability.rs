@@ -28,13 +28,17 @@
 //!   certificate); `propose_certified_every_step` — a certificate at every proposal;
 //!   `propose_certified_served_same_state` — the served pass on one state, repeatedly;
 //!   `propose_certified_served_after_step` — the served pass on the state the solver's step
-//!   (untimed) has just written, as in a run: the λmax update of issue 4's goal.
+//!   (untimed) has just written, as in a run (criterion's thousands of steps let the mode
+//!   localise: the long-run cost); `propose_certified_served_dense_after_step` — the same
+//!   on the dense mode of a fresh anchor (the cost early in a run). These two are the λmax
+//!   update of issue 4's goal.
 //!
-//! It also prints the applications of `B` per step over 30 steps (the periodic cold restarts
-//! included), from which the average per-step cost follows as a multiple of `operator_apply`.
+//! It also prints, over 30 steps of the default `Stability`, the Lanczos applications and
+//! the `LDLᵀ` factorisations of each proposal (the anchors), and a 400-step controlled run
+//! (`controller_run`).
 #![allow(missing_docs)]
 
-use criterion::{criterion_group, criterion_main, Criterion};
+use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
 use mpm_dt::controller::{Controller, ControllerConfig};
 use mpm_dt::mpm::{Material, ReferenceStepper};
 use mpm_dt::problems::StandingWave;
@@ -75,15 +79,18 @@ fn bench(c: &mut Criterion) {
     {
         let mut l = limit.clone();
         let mut s2 = s.clone();
-        let mut apps = Vec::new();
+        let (mut apps, mut factorisations) = (Vec::new(), Vec::new());
         for _ in 0..30 {
             let p = l.propose(&s2.view()).expect("valid state");
             apps.push(p.metrics["lanczos_applications"] as usize);
+            factorisations.push(p.metrics["lambda_factorisations"] as usize);
             s2.try_step(dt).expect("stable step");
             s2.accept().expect("trial pending");
         }
-        let mean = apps.iter().sum::<usize>() as f64 / apps.len() as f64;
-        eprintln!("applications per step over 30 steps: {apps:?}, mean {mean:.2}");
+        eprintln!(
+            "default Stability over 30 steps: Lanczos applications {apps:?}, \
+             LDLᵀ factorisations {factorisations:?}"
+        );
     }
 
     let mut g = c.benchmark_group("stability_1e5");
@@ -257,6 +264,28 @@ fn bench(c: &mut Criterion) {
         let mut l = Stability::new(certified(u32::MAX)).expect("valid config");
         let mut run = sk.clone();
         l.propose(&run.view()).expect("valid");
+        // The same on a dense mode: the limit just anchored (its mode the anchor's Lanczos
+        // vector, non-zero everywhere, as early in a run) and a state one step on, both
+        // copied for each sample (untimed, which also flushes the caches as a step does).
+        let mut dense = Stability::new(certified(u32::MAX)).expect("valid config");
+        let start = sk.clone();
+        dense.propose(&start.view()).expect("valid");
+        g.bench_function("propose_certified_served_dense_after_step", |b| {
+            b.iter_batched(
+                || {
+                    let mut next = start.clone();
+                    next.try_step(dt).expect("stable step");
+                    next.accept().expect("trial pending");
+                    (dense.clone(), next)
+                },
+                |(mut l, next)| {
+                    let p = l.propose(&next.view()).expect("valid");
+                    assert_eq!(p.metrics.get("lambda_factorisations"), Some(&0.0));
+                    (l, next, p)
+                },
+                BatchSize::LargeInput,
+            )
+        });
         g.bench_function("propose_certified_served_after_step", |b| {
             b.iter_custom(|iters| {
                 let mut total = Duration::ZERO;
