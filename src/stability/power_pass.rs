@@ -20,19 +20,26 @@
 //! `0 · ∞` or `0 · NaN` in such a block's `K_N` no longer poisons the quotient (a
 //! non-finite `K_N` is then reported at the next anchor, whose validation reads every
 //! entry; a stepper's pass refuses non-finite particles before it could produce one). On
-//! the 10⁵-particle standing wave the mode is non-zero on 2 % of the nodes after 2500
-//! steps, in two clusters, one across the periodic seam. Blocks, not chunks: a test per
-//! chunk mispredicted on the patchy zeros of a mode still localising, and made the pass
-//! 1.4× slower there.
+//! the 10⁵-particle standing wave the mode is non-zero everywhere for about 100 steps, on
+//! 22 % of the nodes after 300 steps, 2.3 % after 1000 and 0.9 % after 2500, in two
+//! clusters (one across the periodic seam). Blocks, not chunks: a test per chunk
+//! mispredicted on the patchy zeros of a mode still localising, and made the pass 1.2–1.7×
+//! slower there (median over the first 300 steps, two runs).
 //!
 //! **Flushed tails.** On a long run the tracked mode localises: power steps on a clustered
 //! top of the spectrum shrink its components away from the top mode's support geometrically,
 //! and after about 1500 steps of the 10⁵-particle standing wave a quarter of them were
 //! subnormal numbers, whose arithmetic made the pass 1.5× slower (median 94 against 64 µs).
 //! The caller passes `floor` = [`FLUSH_RELATIVE`] times the previous pass's `max_abs`, and
-//! power-step values below it are stored as zero. Any vector's Rayleigh quotient is a lower
-//! bound on λmax, so the flushed mode still gives one; what it loses is below
-//! `FLUSH_RELATIVE²` relative in the quotient.
+//! power-step values below it are stored as zero: values a double cannot add to the largest
+//! component anyway. Any vector's Rayleigh quotient is a lower bound on λmax, so the flushed
+//! mode still gives one; its quotient differs from the unflushed one's by about
+//! `n · FLUSH_RELATIVE²` relative (`10⁻²⁵` at `5·10⁴` nodes), far below the quotient's own
+//! rounding. What the flushed tails cannot do is grow back from below the floor into a
+//! new top mode far away; the power step could not have either (from `10⁻¹⁵`, a mode 1 %
+//! above the tracked one needs about 3500 steps to take over): finding a new top is the
+//! anchors' work (their certificate fails, and Lanczos replaces the mode), and the
+//! diagonal test's between anchors.
 //!
 //! **Layout of the loop.** The interior nodes `2 … n−3` run in chunks of [`LANES`]
 //! consecutive nodes with [`LANES`] independent accumulators of each sum, maximum and flag,
@@ -64,9 +71,10 @@ use crate::nodal_stiffness::NodalStiffness;
 const LANES: usize = 4;
 
 /// Power-step values below this fraction of the previous mode's largest component are
-/// stored as zero (module docs, "Flushed tails"): their share of the quotient is below
-/// `10⁻¹²⁰`, and the mode keeps clear of subnormal numbers.
-pub(super) const FLUSH_RELATIVE: f64 = 1e-60;
+/// stored as zero (module docs, "Flushed tails"): about `5ε`, below the rounding of the
+/// largest component; their share of the quotient is about `10⁻³⁰` each, and the mode keeps
+/// clear of subnormal numbers.
+pub(super) const FLUSH_RELATIVE: f64 = 1e-15;
 
 /// Nodes per block of the zero-block test (module docs, "Zero blocks"): a multiple of
 /// [`LANES`].
