@@ -152,8 +152,11 @@ pub struct Anchor {
     pub last_rayleigh: f64,
     /// Proposals served since the anchor.
     pub served: u32,
-    /// Power-step values below this are stored as zero: [`FLUSH_RELATIVE`] times the largest
-    /// component of the mode the last pass started from (`power_pass`, "Flushed tails").
+    /// Power-step values below this are stored as zero: `10⁻¹⁵` times the largest component
+    /// of the mode the last pass started from (the served pass's "flushed tails": a long
+    /// run's localised mode otherwise decays into subnormal numbers, which slowed the pass
+    /// 1.2–1.4×). `0` (a checkpoint from before this field) flushes nothing until the next
+    /// pass sets it.
     #[serde(default)]
     pub flush_below: f64,
     /// The certified upper bound over the anchor's Rayleigh quotient (`1 + margin` when the
