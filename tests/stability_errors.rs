@@ -3,8 +3,8 @@
 mod stability_common;
 
 use mpm_dt::stability::{
-    bound58, Bound58Reading, Eq56Operator, FullMap, SoundSpeed, SoundSpeedConfig, Stability,
-    StabilityConfig, StabilityError,
+    bound58, Bound58Reading, Eq56Operator, FullMap, NodalOperator, SoundSpeed, SoundSpeedConfig,
+    Stability, StabilityConfig, StabilityError,
 };
 use mpm_dt::{LimitError, Shape, StepLimit};
 use stability_common::*;
@@ -104,6 +104,41 @@ fn empty_nodes_are_typed_errors() {
         Eq56Operator::new(&fx.view()).unwrap_err(),
         StabilityError::NoParticles
     );
+}
+
+#[test]
+fn a_non_positive_active_mass_on_the_served_path_is_a_typed_error() {
+    // The served pass does not test the masses (a trusted pass summary vouches for them);
+    // without one the tracker scans them first, and the anchor that follows reports the bad
+    // one at once. (Here the pass's diagonal test, for the zero mass, and its drop trigger,
+    // for the infinite one, would anchor too; inside a zero block only the scan sees an
+    // infinite mass: the unit test of `active_masses_positive`.)
+    let mut fx = base();
+    let k = NodalOperator::new(&fx.view())
+        .expect("valid")
+        .stiffness()
+        .clone();
+    fx.stiffness = Some(k);
+    let mut limit = Stability::default();
+    limit.propose(&fx.view()).expect("valid state: anchors");
+    let served = limit.propose(&fx.view()).expect("valid state: served");
+    assert_eq!(served.metrics.get("lambda_factorisations"), Some(&0.0));
+    for bad in [0.0, f64::INFINITY] {
+        let mut fx = fx.clone();
+        fx.node_mass[2] = bad; // still marked active
+        let err = limit.clone().propose(&fx.view()).unwrap_err();
+        assert!(
+            matches!(
+                err,
+                LimitError::InvalidState {
+                    field: "node_mass",
+                    index: 2,
+                    ..
+                }
+            ),
+            "{bad}: {err}"
+        );
+    }
 }
 
 #[test]

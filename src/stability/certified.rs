@@ -46,8 +46,10 @@
 //! * the anchor certified a ratio `r` above `1 + 2·margin` (its mode was far below the top)
 //!   and `ρ` has since risen by more than `2·margin`: served values `r ρ` would overstate
 //!   λmax by that rise;
-//! * the nodes changed (count, activity), or a value is not finite (the anchor's full
-//!   validation then reports it as a typed error).
+//! * the nodes changed (count, activity), or a value the pass multiplies is not finite (the
+//!   anchor's full validation then reports it as a typed error; a non-finite `K_N` entry in
+//!   a zero block of the mode is not multiplied, and waits for the next scheduled anchor:
+//!   `power_pass`, "Zero blocks").
 //!
 //! **What is and is not guaranteed.** At an anchor the step uses a certified upper bound.
 //! Between anchors (at most `certify_every − 1` proposals) `λ̂` is a Rayleigh quotient times

@@ -12,7 +12,8 @@ pub enum StabilityError {
     InvalidField {
         /// Which field (`"sigma"`, `"tangent_modulus"`, `"node_mass"`, …).
         field: &'static str,
-        /// Particle or node index.
+        /// Particle or node index; for `"nodal_stiffness"` the position in
+        /// [`crate::NodalStiffness::values`] (its diagonal, then `upper1`, then `upper2`).
         index: usize,
         /// The offending value.
         value: f64,

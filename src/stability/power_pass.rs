@@ -19,7 +19,10 @@
 //! anywhere must be seen) and is left zero — the same bits as computing it, except that
 //! `0 · ∞` or `0 · NaN` in such a block's `K_N` no longer poisons the quotient (a
 //! non-finite `K_N` is then reported at the next anchor, whose validation reads every
-//! entry; a stepper's pass refuses non-finite particles before it could produce one). On
+//! entry; a stepper's pass refuses non-finite particles before it could produce one), that
+//! an infinite active mass there no longer does either (the caller's mass scan refuses it,
+//! or a trusted summary excludes it), and that without a floor a computed zero may be
+//! `−0.0` where the block leaves `+0.0`. On
 //! the 10⁵-particle standing wave the mode is non-zero everywhere for about 100 steps, on
 //! 22 % of the nodes after 300 steps, 2.3 % after 1000 and 0.9 % after 2500, in two
 //! clusters (one across the periodic seam). Blocks, not chunks: a test per chunk
@@ -32,11 +35,11 @@
 //! numbers, whose arithmetic made the pass slower (median over a 3000-step run 94–104 µs,
 //! against 76 µs with the flush).
 //! The caller passes `floor` = [`FLUSH_RELATIVE`] times the previous pass's `max_abs`, and
-//! power-step values below it are stored as zero: values a double cannot add to the largest
-//! component anyway. Any vector's Rayleigh quotient is a lower bound on λmax, so the flushed
-//! mode still gives one; its quotient differs from the unflushed one's by about
-//! `n · FLUSH_RELATIVE²` relative (`10⁻²⁵` at `5·10⁴` nodes), far below the quotient's own
-//! rounding. What the flushed tails cannot do is grow back from below the floor into a
+//! power-step values below it are stored as zero: each such value's share of the quotient
+//! is below `FLUSH_RELATIVE² ≈ 10⁻³⁰`. Any vector's Rayleigh quotient is a lower bound on
+//! λmax, so the flushed mode still gives one; its quotient differs from the unflushed one's
+//! by at most about `n · FLUSH_RELATIVE²` relative (`10⁻²⁵` at `5·10⁴` nodes), far below the
+//! quotient's own rounding. What the flushed tails cannot do is grow back from below the floor into a
 //! new top mode far away; the power step could not have either (from `10⁻¹⁵`, a mode 1 %
 //! above the tracked one needs about 3500 steps to take over): finding a new top is the
 //! anchors' work (their certificate fails, and Lanczos replaces the mode), and the
@@ -180,20 +183,21 @@ impl Inputs<'_> {
     }
 }
 
-/// Whether every active node has a positive mass (`NaN` is not positive): the precondition
-/// of [`power_pass`] that a trusted [`crate::PassSummary`] guarantees, checked by this scan
-/// otherwise.
+/// Whether every active node has a positive finite mass: the precondition of [`power_pass`]
+/// that a trusted [`crate::PassSummary`] guarantees, checked by this scan otherwise (an
+/// infinite mass would make the quotient 0 and a zero block would hide it; a zero or
+/// negative one trips the diagonal test, a `NaN` the quotient, but not by design).
 pub(super) fn active_masses_positive(mass: &[f64], active: &[bool]) -> bool {
     // A fold without early exit, so that it vectorises.
-    mass.iter()
-        .zip(active)
-        .fold(true, |ok, (&m, &a)| ok & (!a | (m > 0.0)))
+    mass.iter().zip(active).fold(true, |ok, (&m, &a)| {
+        ok & (!a | (m > 0.0 && m < f64::INFINITY))
+    })
 }
 
 /// The pass (module docs): the quotient and checks of the mode `z` on entry, and `z`
 /// overwritten by its power step. The caller makes sure that every active mass is positive
 /// ([`active_masses_positive`]; a trusted pass summary guarantees it): the pass does not
-/// test it (it did, at 10 % of its time). `None` when it cannot be trusted (sizes, under 4
+/// test it (it did, at about 13 % of its time). `None` when it cannot be trusted (sizes, under 4
 /// nodes, a node that became inactive under a non-zero `z_i`, a non-finite or negative
 /// quotient) — the caller then anchors, whose full validation reports errors and which
 /// replaces `z`. `z` is untouched only when the sizes do not fit.
@@ -429,7 +433,9 @@ mod avx2 {
 
     /// Whether the `BLOCK + 4` values from `p` are all `+0.0` bits, reading them four
     /// vectors at a time and stopping at the first group that is not (on a dense mode,
-    /// after the first).
+    /// after the first). Like [`active_mask`] it has no `target_feature` of its own: it is
+    /// only called from, and always inlined into, the AVX2 `chunks`, whose features its
+    /// intrinsics then use.
     ///
     /// # Safety
     /// The CPU must support AVX2, and `p .. p + BLOCK + 4` must be readable.
@@ -670,70 +676,140 @@ mod tests {
         (num / den, above, stale, max_abs, next)
     }
 
+    /// The pass in both builds on one case: the dispatched build (AVX2 where the CPU has
+    /// it) and the portable one, each on its own copy of `z`.
+    fn both_builds(
+        k: &NodalStiffness,
+        (mass, active): (&[f64], &[bool]),
+        z: &[f64],
+        (rho_prev, bound, floor): (f64, f64, f64),
+    ) -> [(Lane, Vec<f64>); 2] {
+        let inputs = Inputs {
+            kd: &k.diag,
+            k1: &k.upper1,
+            k2: &k.upper2,
+            mass,
+            active,
+            inv_rho: 1.0 / rho_prev,
+            bound,
+            floor,
+        };
+        let (mut fast, mut portable) = (z.to_vec(), z.to_vec());
+        let lane = dispatch(&inputs, &mut fast);
+        [(lane, fast), (pass(&inputs, &mut portable), portable)]
+    }
+
+    fn bits(v: &[f64]) -> Vec<u64> {
+        v.iter().map(|x| x.to_bits()).collect()
+    }
+
     #[test]
     fn the_vector_builds_agree_bit_for_bit_and_match_the_sequential_definition() {
-        // Sizes with no chunk (4–7 nodes), one chunk, every tail length, and long runs.
-        let sizes = [4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 64, 1001];
-        // Without flushing, and with a floor that flushes about half of the power step.
-        // From 64 nodes a stretch of zeros, whole zero blocks from 1001.
-        for ((seed, n), flush) in sizes.into_iter().enumerate().zip([false, true].repeat(7)) {
-            let (k, mass, active, mut z) = case(n, seed as u64, false);
-            if n >= 64 {
-                z[n / 4..n / 2].fill(0.0);
-            }
-            let (rho_prev, bound) = (1.3, 2.5);
-            let floor = if flush {
-                let (.., unflushed) = reference(&k, &mass, &active, &z, (rho_prev, bound, 0.0));
-                let mut sizes: Vec<f64> = unflushed.iter().map(|v| v.abs()).collect();
-                sizes.sort_by(f64::total_cmp);
-                sizes[sizes.len() / 2]
-            } else {
-                0.0
-            };
-            let mut fast = z.clone();
-            let p = power_pass(&k, &mass, &active, &mut fast, rho_prev, bound, floor)
-                .expect("valid pass");
-            let inputs = Inputs {
-                kd: &k.diag,
-                k1: &k.upper1,
-                k2: &k.upper2,
-                mass: &mass,
-                active: &active,
-                inv_rho: 1.0 / rho_prev,
-                bound,
-                floor,
-            };
-            let mut portable = z.clone();
-            let lane = pass(&inputs, &mut portable);
-            assert_eq!(fast, portable, "n = {n}: power steps differ between builds");
-            assert_eq!(
-                p.rayleigh.to_bits(),
-                (lane.num / lane.den).to_bits(),
-                "n = {n}: quotients differ"
-            );
-            // The in-place pass computes from the mode on entry, as an out-of-place one.
-            let (rho, above, stale, max_abs, next) =
-                reference(&k, &mass, &active, &z, (rho_prev, bound, floor));
-            assert!(!stale);
-            assert_eq!(p.diagonal_above, above, "n = {n}");
-            assert_eq!(p.max_abs.to_bits(), max_abs.to_bits(), "n = {n}");
-            if flush {
-                let zeros = next.iter().filter(|&&v| v == 0.0).count();
+        // Sizes with no chunk (4–7 nodes), one chunk, every tail length, and long runs;
+        // each without flushing and with a floor that flushes about half of the power step.
+        // Zero stretches: from 64 nodes in the middle, whole zero blocks from 134 nodes —
+        // the first block (134: nodes 0–69 zero), the last interior step (135: nodes
+        // 60–134 zero), and blocks inside (1001).
+        let sizes = [4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 64, 134, 135, 1001];
+        for (seed, n) in sizes.into_iter().enumerate() {
+            for flush in [false, true] {
+                let (mut k, mass, active, mut z) = case(n, seed as u64, false);
+                let zero = match n {
+                    134 => 0..70,
+                    135 => 60..135,
+                    _ if n >= 64 => n / 4..n / 2,
+                    _ => 0..0,
+                };
+                z[zero.clone()].fill(0.0);
+                // A NaN in `K_N` well inside a zero block is never multiplied: proof that
+                // the block was skipped (a computed block would poison the quotient).
+                let skipped = (n >= 134).then(|| {
+                    let j = zero.start + 8;
+                    k.upper1[j] = f64::NAN;
+                    j
+                });
+                let (rho_prev, bound) = (1.3, 2.5);
+                let floor = if flush {
+                    let (.., unflushed) = reference(&k, &mass, &active, &z, (rho_prev, bound, 0.0));
+                    let mut sizes: Vec<f64> = unflushed.iter().map(|v| v.abs()).collect();
+                    sizes.sort_by(f64::total_cmp);
+                    sizes[sizes.len() / 2]
+                } else {
+                    0.0
+                };
+                let scalars = (rho_prev, bound, floor);
+                let [(fast, fz), (portable, pz)] = both_builds(&k, (&mass, &active), &z, scalars);
+                let case = format!("n = {n}, flush {flush}");
+                assert_eq!(
+                    bits(&fz),
+                    bits(&pz),
+                    "{case}: power steps differ between builds"
+                );
+                for (a, b) in [
+                    (fast.num, portable.num),
+                    (fast.den, portable.den),
+                    (fast.max_abs, portable.max_abs),
+                ] {
+                    assert_eq!(
+                        a.to_bits(),
+                        b.to_bits(),
+                        "{case}: sums differ between builds"
+                    );
+                }
+                assert_eq!((fast.above, fast.stale), (portable.above, portable.stale));
+                let p = power_pass(&k, &mass, &active, &mut z.clone(), rho_prev, bound, floor)
+                    .expect("valid pass");
+                assert_eq!(p.rayleigh.to_bits(), (fast.num / fast.den).to_bits());
+                if let Some(j) = skipped {
+                    assert!(
+                        p.rayleigh.is_finite(),
+                        "{case}: the block at {j} was computed"
+                    );
+                    k.upper1[j] = 0.0;
+                }
+                // The in-place pass computes from the mode on entry, as an out-of-place one
+                // (equal values; a skipped block's zeros are `+0.0` where the definition may
+                // give `−0.0` without a floor).
+                let (rho, above, _, max_abs, next) = reference(&k, &mass, &active, &z, scalars);
+                assert_eq!(p.diagonal_above, above, "{case}");
+                assert_eq!(p.max_abs.to_bits(), max_abs.to_bits(), "{case}");
+                if flush {
+                    let zeros = next.iter().filter(|&&v| v == 0.0).count();
+                    assert!(
+                        zeros >= n / 2 && zeros < n,
+                        "{case}: {zeros} values flushed"
+                    );
+                }
+                assert_eq!(fz, next, "{case}: power step differs from the definition");
                 assert!(
-                    zeros >= n / 2 && zeros < n,
-                    "n = {n}: {zeros} values flushed"
+                    (p.rayleigh - rho).abs() <= 1e-12 * rho.abs().max(1.0),
+                    "{case}: quotient {} vs sequential {rho}",
+                    p.rayleigh
                 );
             }
-            assert_eq!(
-                fast, next,
-                "n = {n}: power step differs from the definition"
-            );
-            assert!(
-                (p.rayleigh - rho).abs() <= 1e-12 * rho.abs().max(1.0),
-                "n = {n}: quotient {} vs sequential {rho}",
-                p.rayleigh
-            );
         }
+    }
+
+    #[test]
+    fn the_mass_scan_refuses_what_a_zero_block_would_hide() {
+        // An infinite mass at an active node inside a zero block: the pass serves (the block
+        // is not computed, the diagonal test cannot fire), so the caller's scan must refuse.
+        let (k, mut mass, active, mut z) = case(1001, 11, false);
+        z[300..600].fill(0.0);
+        let j = (400..500).find(|&j| active[j]).expect("an active node");
+        mass[j] = f64::INFINITY;
+        assert!(power_pass(&k, &mass, &active, &mut z, 1.0, 100.0, 0.0).is_some());
+        assert!(!active_masses_positive(&mass, &active));
+        for bad in [0.0, -1.0, f64::NAN] {
+            mass[j] = bad;
+            assert!(!active_masses_positive(&mass, &active), "{bad}");
+        }
+        mass[j] = 0.5;
+        assert!(active_masses_positive(&mass, &active));
+        // Inactive nodes may hold anything.
+        let i = (0..1001).find(|&i| !active[i]).expect("an inactive node");
+        mass[i] = f64::INFINITY;
+        assert!(active_masses_positive(&mass, &active));
     }
 
     #[test]
@@ -759,11 +835,15 @@ mod tests {
         z3[300..600].fill(0.0);
         let j3 = (400..500).find(|&j| active3[j]).expect("an active node");
         k3.diag[j3] = 1e3 * mass3[j3];
-        let p3 = power_pass(&k3, &mass3, &active3, &mut z3.clone(), 1.0, 100.0, 0.0);
-        assert!(p3.expect("valid").diagonal_above);
-        k3.diag[j3] = 0.0;
-        let p3 = power_pass(&k3, &mass3, &active3, &mut z3, 1.0, 100.0, 0.0);
-        assert!(!p3.expect("valid").diagonal_above);
+        for (kd, expect) in [(1e3 * mass3[j3], true), (0.0, false)] {
+            k3.diag[j3] = kd;
+            let builds = both_builds(&k3, (&mass3, &active3), &z3, (1.0, 100.0, 0.0));
+            for (lane, _) in builds {
+                assert_eq!(lane.above, expect);
+            }
+            let p3 = power_pass(&k3, &mass3, &active3, &mut z3.clone(), 1.0, 100.0, 0.0);
+            assert_eq!(p3.expect("valid").diagonal_above, expect);
+        }
         let mut z2 = z.clone();
         let p = power_pass(&k2, &mass, &active, &mut z2, 1.0, 100.0, 0.0).expect("valid");
         assert!(p.diagonal_above);

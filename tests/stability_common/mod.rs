@@ -15,6 +15,7 @@ pub fn dense_dt56(view: &View<'_>) -> f64 {
 }
 
 /// An owned state that lends a [`View`].
+#[derive(Clone)]
 pub struct Fixture {
     pub grid: Grid,
     pub shape: Shape,
