@@ -17,45 +17,45 @@
 //! tests each block of [`BLOCK`] nodes at once: when `z` is all `+0.0` bits on the block
 //! and two nodes either side, the block only takes its diagonal tests (a light node
 //! anywhere must be seen) and is left zero — the same bits as computing it, except that
-//! `0 · ∞` or `0 · NaN` in such a block's `K_N` no longer poisons the quotient (a
-//! non-finite `K_N` is then reported at the next anchor, whose validation reads every
-//! entry; a stepper's pass refuses non-finite particles before it could produce one), that
-//! an infinite active mass there no longer does either (the caller's mass scan refuses it,
-//! or a trusted summary excludes it), and that without a floor a computed zero may be
-//! `−0.0` where the block leaves `+0.0`. On
-//! the 10⁵-particle standing wave the mode is non-zero everywhere for about 100 steps, on
-//! 22 % of the nodes after 300 steps, 2.3 % after 1000 and 0.9 % after 2500, in two
-//! clusters (one across the periodic seam). Blocks, not chunks: a test per chunk
-//! mispredicted on the patchy zeros of a mode still localising, and made the pass 1.2–1.7×
-//! slower there (median over the first 300 steps, two runs).
+//! `0·∞` or `0·NaN` in such a block's `K_N` no longer poisons the quotient (a non-finite
+//! `K_N` is then reported at the next anchor, whose validation reads every entry; a
+//! stepper's pass refuses non-finite particles before it could produce one), that an
+//! infinite active mass there no longer does either (the caller's mass scan refuses it, or
+//! a trusted summary excludes it), and that without a floor a computed zero may be `−0.0`
+//! where the block leaves `+0.0`. On the 10⁵-particle standing wave the mode is non-zero
+//! everywhere for about 100 steps, on 22 % of the nodes after 300 steps, 2.3 % after 1000
+//! and 0.9 % after 2500, in two clusters (one across the periodic seam). Blocks, not
+//! chunks: a test per chunk mispredicted on the patchy zeros of a mode still localising,
+//! and made the pass 1.2–1.7× slower there (median over the first 300 steps, two runs).
 //!
 //! **Flushed tails.** On a long run the tracked mode localises: power steps on a clustered
-//! top of the spectrum shrink its components away from the top mode's support geometrically,
-//! and after 2000 steps of the 10⁵-particle standing wave 28 % of them were subnormal
-//! numbers, whose arithmetic made the pass slower (median over a 3000-step run 94–104 µs,
-//! against 76 µs with the flush).
-//! The caller passes `floor` = [`FLUSH_RELATIVE`] times the previous pass's `max_abs`, and
-//! power-step values below it are stored as zero: each such value's share of the quotient
-//! is below `FLUSH_RELATIVE² ≈ 10⁻³⁰`. Any vector's Rayleigh quotient is a lower bound on
-//! λmax, so the flushed mode still gives one; its quotient differs from the unflushed one's
-//! by at most about `n · FLUSH_RELATIVE²` relative (`10⁻²⁵` at `5·10⁴` nodes), far below the
-//! quotient's own rounding. What the flushed tails cannot do is grow back from below the floor into a
-//! new top mode far away; the power step could not have either (from `10⁻¹⁵`, a mode 1 %
-//! above the tracked one needs about 3500 steps to take over): finding a new top is the
-//! anchors' work (their certificate fails, and Lanczos replaces the mode), and the
-//! diagonal test's between anchors.
+//! top of the spectrum shrink its components away from the top mode's support
+//! geometrically, and after 2000 steps of the 10⁵-particle standing wave 28 % of them were
+//! subnormal numbers, whose arithmetic made the pass slower (median over a 3000-step run
+//! 94–104 µs, against 76 µs with the flush). The caller passes `floor` = [`FLUSH_RELATIVE`]
+//! times the previous pass's `max_abs`, and power-step values below it are stored as zero:
+//! each such value's share of the quotient is below `FLUSH_RELATIVE² ≈ 10⁻³⁰`. Any vector's
+//! Rayleigh quotient is a lower bound on λmax, so the flushed mode still gives one; its
+//! quotient differs from the unflushed one's by at most about `n · FLUSH_RELATIVE²`
+//! relative (`10⁻²⁵` at `5·10⁴` nodes), far below the quotient's own rounding. What the
+//! flushed tails cannot do is grow back from below the floor into a new top mode far away;
+//! the power step could not have either (from `10⁻¹⁵`, a mode 1 % above the tracked one
+//! needs about 3500 steps to take over): finding a new top is the anchors' work (their
+//! certificate fails, and Lanczos replaces the mode), and the diagonal test's between
+//! anchors.
 //!
 //! **Layout of the loop.** The interior nodes `2 … n−3` run in chunks of [`LANES`]
 //! consecutive nodes with [`LANES`] independent accumulators of each sum, maximum and flag,
 //! every branch written as a select; a chunk is 4-wide vector instructions (explicit AVX2
 //! intrinsics in that build, the portable lanes otherwise; the four off-diagonal entries of
-//! the chunk's rows, `K_N(j, j+1)`, `K_N(j, j+2)`, `K_N(j−1, j)` and `K_N(j−2, j)`, are four
-//! unaligned loads from the bands `upper1` and `upper2`), so the divisions of the power step
-//! and the two reduction chains no longer serialise the pass. The first and last two nodes
-//! (and the remainder of the interior) go through the scalar wrapped row. The lanes are summed at the end, so the
-//! quotient's rounding differs from a sequential sum by a few units in the last place (it is
-//! deterministic: the same inputs give the same bits, on every CPU, since the AVX2 build uses
-//! no FMA and the baseline build rounds each operation the same way).
+//! the chunk's rows, `K_N(j, j+1)`, `K_N(j, j+2)`, `K_N(j−1, j)` and `K_N(j−2, j)`, are
+//! four unaligned loads from the bands `upper1` and `upper2`), so the divisions of the
+//! power step and the two reduction chains no longer serialise the pass. The first and last
+//! two nodes (and the remainder of the interior) go through the scalar wrapped row. The
+//! lanes are summed at the end, so the quotient's rounding differs from a sequential sum by
+//! a few units in the last place (it is deterministic: the same inputs give the same bits,
+//! on every CPU, since the AVX2 build uses no FMA and the baseline build rounds each
+//! operation the same way).
 //!
 //! **In place.** The power step overwrites `z` as the pass goes, one chunk behind: a chunk
 //! at `i` reads `z[i−2 .. i+6]`, and only then are the previous chunk's results written to
@@ -75,9 +75,8 @@ use crate::nodal_stiffness::NodalStiffness;
 const LANES: usize = 4;
 
 /// Power-step values below this fraction of the previous mode's largest component are
-/// stored as zero (module docs, "Flushed tails"): about `5ε`, below the rounding of the
-/// largest component; their share of the quotient is about `10⁻³⁰` each, and the mode keeps
-/// clear of subnormal numbers.
+/// stored as zero (module docs, "Flushed tails"): about `4.5ε`; each flushed value's share
+/// of the quotient is below `10⁻³⁰`, and the mode keeps clear of subnormal numbers.
 pub(super) const FLUSH_RELATIVE: f64 = 1e-15;
 
 /// Nodes per block of the zero-block test (module docs, "Zero blocks"): a multiple of
