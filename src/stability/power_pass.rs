@@ -161,7 +161,38 @@ impl Lane {
     }
 }
 
-impl Inputs<'_> {
+impl<'a> Inputs<'a> {
+    /// The inputs of a pass over `K_N`'s bands and the nodes' masses and flags, with the
+    /// previous quotient (its reciprocal scales the power step; `1` unless positive), the
+    /// diagonal test's bound and the flush floor.
+    fn new(
+        k: &'a NodalStiffness,
+        (mass, active): (&'a [f64], &'a [bool]),
+        (rho_prev, bound, floor): (f64, f64, f64),
+    ) -> Self {
+        Inputs {
+            kd: &k.diag,
+            k1: &k.upper1,
+            k2: &k.upper2,
+            mass,
+            active,
+            inv_rho: if rho_prev > 0.0 { 1.0 / rho_prev } else { 1.0 },
+            bound,
+            floor,
+        }
+    }
+
+    /// The diagonal test's margin at a node, `K(i,i) − bound · m_i` (`−∞` at an inactive
+    /// node): the test fires when the lanes' maximum is positive.
+    #[inline(always)]
+    fn diagonal_gap(&self, kd: f64, m: f64, active: bool) -> f64 {
+        if active {
+            kd - self.bound * m
+        } else {
+            f64::NEG_INFINITY
+        }
+    }
+
     /// `(K_N z)_i` with the indices wrapped (entries past a fixed grid's last node are zero
     /// in `K_N`'s storage, so the wrap adds nothing there).
     fn wrapped_row(&self, z: &[f64], i: usize) -> f64 {
@@ -218,16 +249,7 @@ pub(super) fn power_pass(
     if !k.has_len(n) || mass.len() != n || active.len() != n || n < 4 {
         return None;
     }
-    let inputs = Inputs {
-        kd: &k.diag[..n],
-        k1: &k.upper1[..n],
-        k2: &k.upper2[..n],
-        mass: &mass[..n],
-        active: &active[..n],
-        inv_rho: if rho_prev > 0.0 { 1.0 / rho_prev } else { 1.0 },
-        bound,
-        floor,
-    };
+    let inputs = Inputs::new(k, (mass, active), (rho_prev, bound, floor));
     let lane = dispatch(&inputs, z);
     let rayleigh = lane.num / lane.den;
     let valid = !lane.stale && rayleigh.is_finite() && rayleigh >= 0.0;
@@ -353,12 +375,7 @@ fn chunks(inp: &Inputs<'_>, z: &mut [f64]) -> Interior {
             }
             for j in (i..i + BLOCK).step_by(LANES) {
                 for l in 0..LANES {
-                    let (kd, m) = (inp.kd[j + l], inp.mass[j + l]);
-                    let gap = if inp.active[j + l] {
-                        kd - inp.bound * m
-                    } else {
-                        f64::NEG_INFINITY
-                    };
+                    let gap = inp.diagonal_gap(inp.kd[j + l], inp.mass[j + l], inp.active[j + l]);
                     acc.above[l] = acc.above[l].max(gap);
                 }
             }
@@ -397,11 +414,7 @@ fn chunks(inp: &Inputs<'_>, z: &mut [f64]) -> Interior {
             let (zi, al) = (zw[l + 2], a[l]);
             acc.num[l] += zi * y[l];
             acc.den[l] += if al { m[l] * zi * zi } else { 0.0 };
-            acc.above[l] = acc.above[l].max(if al {
-                kd[l] - inp.bound * m[l]
-            } else {
-                f64::NEG_INFINITY
-            });
+            acc.above[l] = acc.above[l].max(inp.diagonal_gap(kd[l], m[l], al));
             acc.stale[l] = acc.stale[l].max(if al { 0.0 } else { zi.abs() });
             acc.max_abs[l] = acc.max_abs[l].max(zi.abs());
             let step = y[l] * inp.inv_rho / m[l];
@@ -460,6 +473,17 @@ mod avx2 {
             }
             zero(load(BLOCK))
         }
+    }
+
+    /// [`super::Inputs::diagonal_gap`] of four nodes: `kd − bound · m`, `−∞` where `act`
+    /// is clear.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[inline(always)]
+    unsafe fn diagonal_gap(kdv: __m256d, m: __m256d, act: __m256d, bound: __m256d) -> __m256d {
+        let neg_inf = _mm256_set1_pd(f64::NEG_INFINITY);
+        _mm256_blendv_pd(neg_inf, _mm256_sub_pd(kdv, _mm256_mul_pd(bound, m)), act)
     }
 
     /// All-ones lanes where the four flags from `ap` are set.
@@ -529,8 +553,7 @@ mod avx2 {
                             let kdv = _mm256_loadu_pd(kd.as_ptr().add(j));
                             let m = _mm256_loadu_pd(mass.as_ptr().add(j));
                             let act = active_mask(active.as_ptr().add(j));
-                            let gap = _mm256_sub_pd(kdv, _mm256_mul_pd(bound, m));
-                            above = _mm256_max_pd(_mm256_blendv_pd(neg_inf, gap, act), above);
+                            above = _mm256_max_pd(diagonal_gap(kdv, m, act, bound), above);
                         }
                         i += BLOCK;
                         continue;
@@ -568,8 +591,7 @@ mod avx2 {
                 let mzz = _mm256_mul_pd(_mm256_mul_pd(m, z0), z0);
                 den = _mm256_add_pd(den, _mm256_blendv_pd(zero, mzz, act));
                 // (x, acc) operand order: a NaN x leaves acc, as `f64::max` ignores NaN.
-                let gap = _mm256_sub_pd(kdv, _mm256_mul_pd(bound, m));
-                above = _mm256_max_pd(_mm256_blendv_pd(neg_inf, gap, act), above);
+                above = _mm256_max_pd(diagonal_gap(kdv, m, act, bound), above);
                 let za = _mm256_and_pd(z0, abs_mask);
                 stale = _mm256_max_pd(_mm256_blendv_pd(za, zero, act), stale);
                 max_abs = _mm256_max_pd(za, max_abs);
@@ -641,16 +663,7 @@ mod tests {
         z: &[f64],
         (rho_prev, bound, floor): (f64, f64, f64),
     ) -> (f64, bool, bool, f64, Vec<f64>) {
-        let inp = Inputs {
-            kd: &k.diag,
-            k1: &k.upper1,
-            k2: &k.upper2,
-            mass,
-            active,
-            inv_rho: 1.0 / rho_prev,
-            bound,
-            floor,
-        };
+        let inp = Inputs::new(k, (mass, active), (rho_prev, bound, floor));
         let (mut num, mut den, mut above, mut stale) = (0.0, 0.0, false, false);
         let next = (0..z.len())
             .map(|i| {
@@ -681,18 +694,9 @@ mod tests {
         k: &NodalStiffness,
         (mass, active): (&[f64], &[bool]),
         z: &[f64],
-        (rho_prev, bound, floor): (f64, f64, f64),
+        scalars: (f64, f64, f64),
     ) -> [(Lane, Vec<f64>); 2] {
-        let inputs = Inputs {
-            kd: &k.diag,
-            k1: &k.upper1,
-            k2: &k.upper2,
-            mass,
-            active,
-            inv_rho: 1.0 / rho_prev,
-            bound,
-            floor,
-        };
+        let inputs = Inputs::new(k, (mass, active), scalars);
         let (mut fast, mut portable) = (z.to_vec(), z.to_vec());
         let lane = dispatch(&inputs, &mut fast);
         [(lane, fast), (pass(&inputs, &mut portable), portable)]
