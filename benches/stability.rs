@@ -286,6 +286,25 @@ fn bench(c: &mut Criterion) {
                 BatchSize::LargeInput,
             )
         });
+        // The dense pass with its data in cache: one stepped state, proposed on from a fresh
+        // copy of the anchored limit each time (the pass's inputs, 2.5 MB, fit the L3 cache).
+        let stepped = {
+            let mut next = start.clone();
+            next.try_step(dt).expect("stable step");
+            next.accept().expect("trial pending");
+            next
+        };
+        g.bench_function("propose_certified_served_dense_in_cache", |b| {
+            b.iter_batched(
+                || dense.clone(),
+                |mut l| {
+                    let p = l.propose(&stepped.view()).expect("valid");
+                    assert_eq!(p.metrics.get("lambda_factorisations"), Some(&0.0));
+                    (l, p)
+                },
+                BatchSize::LargeInput,
+            )
+        });
         g.bench_function("propose_certified_served_after_step", |b| {
             b.iter_custom(|iters| {
                 let mut total = Duration::ZERO;
