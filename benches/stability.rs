@@ -29,9 +29,13 @@
 //!   `propose_certified_served_same_state` — the served pass on one state, repeatedly;
 //!   `propose_certified_served_after_step` — the served pass on the state the solver's step
 //!   (untimed) has just written, as in a run (criterion's thousands of steps let the mode
-//!   localise: the long-run cost); `propose_certified_served_dense_after_step` — the same
-//!   on the dense mode of a fresh anchor (the cost early in a run). These two are the λmax
-//!   update of issue 4's goal.
+//!   localise: the long-run cost); `propose_certified_served_windowed_after_step` — the
+//!   same on a fresh anchor's mode tapered to 512 nodes (`CertifiedConfig::localise`, the
+//!   default: the cost early in a run); `propose_certified_served_dense_after_step` — the
+//!   same with `localise` off, the anchor's Lanczos vector non-zero everywhere (the cost
+//!   early in a run before round 8, and wherever a window is refused);
+//!   `propose_certified_served_dense_in_cache` — the dense pass with its data in cache.
+//!   These are the λmax update of issue 4's goal.
 //!
 //! It also prints, over 30 steps of the default `Stability`, the Lanczos applications and
 //! the `LDLᵀ` factorisations of each proposal (the anchors), and a 400-step controlled run
@@ -264,28 +268,48 @@ fn bench(c: &mut Criterion) {
         let mut l = Stability::new(certified(u32::MAX)).expect("valid config");
         let mut run = sk.clone();
         l.propose(&run.view()).expect("valid");
-        // The same on a dense mode: the limit just anchored (its mode the anchor's Lanczos
-        // vector, non-zero everywhere, as early in a run) and a state one step on, both
-        // copied for each sample (untimed, which also flushes the caches as a step does).
-        let mut dense = Stability::new(certified(u32::MAX)).expect("valid config");
+        // A fresh anchor's mode: the limit just anchored (cold start) and a state one step
+        // on, both copied for each sample (untimed, which also flushes the caches as a step
+        // does). With `localise` off the mode is the anchor's Lanczos vector, non-zero
+        // everywhere (as in a run's first ~100–300 steps before round 8, and still where a
+        // window would lose more than `margin / 10` of its quotient); with it (the default)
+        // it is tapered to 512 nodes.
         let start = sk.clone();
-        dense.propose(&start.view()).expect("valid");
-        g.bench_function("propose_certified_served_dense_after_step", |b| {
-            b.iter_batched(
-                || {
-                    let mut next = start.clone();
-                    next.try_step(dt).expect("stable step");
-                    next.accept().expect("trial pending");
-                    (dense.clone(), next)
-                },
-                |(mut l, next)| {
-                    let p = l.propose(&next.view()).expect("valid");
-                    assert_eq!(p.metrics.get("lambda_factorisations"), Some(&0.0));
-                    (l, next, p)
-                },
-                BatchSize::LargeInput,
-            )
-        });
+        let anchored = |localise| {
+            let mut l = Stability::new(StabilityConfig {
+                tracking: Tracking::Certified(CertifiedConfig {
+                    certify_every: u32::MAX,
+                    localise,
+                    ..CertifiedConfig::default()
+                }),
+                ..StabilityConfig::default()
+            })
+            .expect("valid config");
+            l.propose(&start.view()).expect("valid");
+            l
+        };
+        let (dense, windowed) = (anchored(false), anchored(true));
+        for (name, fresh) in [
+            ("propose_certified_served_dense_after_step", &dense),
+            ("propose_certified_served_windowed_after_step", &windowed),
+        ] {
+            g.bench_function(name, |b| {
+                b.iter_batched(
+                    || {
+                        let mut next = start.clone();
+                        next.try_step(dt).expect("stable step");
+                        next.accept().expect("trial pending");
+                        (fresh.clone(), next)
+                    },
+                    |(mut l, next)| {
+                        let p = l.propose(&next.view()).expect("valid");
+                        assert_eq!(p.metrics.get("lambda_factorisations"), Some(&0.0));
+                        (l, next, p)
+                    },
+                    BatchSize::LargeInput,
+                )
+            });
+        }
         // The dense pass with its data in cache: one stepped state, proposed on from a fresh
         // copy of the anchored limit each time (the pass's inputs, 2.5 MB, fit the L3 cache).
         let stepped = {

@@ -36,6 +36,13 @@
 //! tries `(1 + margin) ρ` directly (on the pencil when it can), then the same fall-back. How often
 //! each path runs in a 10⁵-particle controller run: README "Stability".
 //!
+//! **Localised modes.** A Lanczos vector is non-zero everywhere, and the served pass costs
+//! in proportion to its mode's support (it skips blocks where the mode is zero). So before a
+//! Lanczos vector is served it is tapered to a window of 512 nodes around its largest
+//! component (`stability/localise.rs`, `CertifiedConfig::localise`), kept only when that loses
+//! at most `margin / 10` of its quotient; the anchor then uses the window's quotient. The
+//! certificate is unchanged (it tests the operator, not the mode).
+//!
 //! Suspicious served steps, which trigger an anchor at once:
 //!
 //! * `ρ` dropped by more than `drop_tol` relative since the anchor — `z` may be going stale
@@ -64,6 +71,7 @@
 use super::certificate::{below_shift, rounding_slack, Pencil};
 use super::error::StabilityError;
 use super::lambda_max::{LambdaEstimate, LambdaMaxTracker, LanczosConfig, SymmetricOperator};
+use super::localise::{self, localised};
 use super::nodal::NodalOperator;
 use super::operator::Eq56Operator;
 use super::power_pass::{active_masses_positive, power_pass, FLUSH_RELATIVE};
@@ -88,6 +96,13 @@ pub struct CertifiedConfig {
     /// can hide at most this much of λmax (`dt` 1 % high) for at most `certify_every`
     /// proposals, inside the `Stability` safety factor.
     pub drop_tol: f64,
+    /// Taper a Lanczos mode to a window of 512 nodes around its largest component before
+    /// serving it, when that keeps its Rayleigh quotient within `margin / 10` (default
+    /// `true`; grids under 2048 nodes are never windowed). The served pass skips the nodes
+    /// where the mode is zero, so it then costs the localised price from the first step
+    /// instead of after the ~100–300 steps the power steps take to localise a Ritz vector
+    /// (`stability/localise.rs`; measured: README "Stability").
+    pub localise: bool,
 }
 
 impl Default for CertifiedConfig {
@@ -96,6 +111,7 @@ impl Default for CertifiedConfig {
             margin: 1e-3,
             certify_every: 20,
             drop_tol: 2e-2,
+            localise: true,
         }
     }
 }
@@ -437,8 +453,9 @@ impl CertifiedTracker {
         if hi.is_none() {
             let est = self.tracker.update(op)?;
             applications += est.applications;
-            vector_ritz = Some(est.lambda_b);
-            self.set_vector(op);
+            let (rho, extra) = self.set_vector(op, est.lambda_b);
+            vector_ritz = Some(rho);
+            applications += extra;
             bracket.lo = bracket.lo.max(est.lambda_b);
             hi = bracket.try_at(shift(bracket.lo, 1.0 + margin));
         }
@@ -464,8 +481,9 @@ impl CertifiedTracker {
                 "lambda_max certificate failed: cold Lanczos retried"
             );
             if cold.lambda_b > bracket.lo {
-                vector_ritz = Some(cold.lambda_b);
-                self.set_vector(op);
+                let (rho, extra) = self.set_vector(op, cold.lambda_b);
+                vector_ritz = Some(rho);
+                applications += extra;
                 bracket.lo = cold.lambda_b;
                 hi = bracket.try_at(shift(bracket.lo, 1.0 + margin));
             }
@@ -534,18 +552,38 @@ impl CertifiedTracker {
         }
     }
 
-    /// The tracked mode `z = M^{1/2} u` from the Lanczos tracker's vector `u`.
-    fn set_vector(&mut self, op: &NodalOperator) {
+    /// The tracked mode `z = M^{1/2} u` from the Lanczos tracker's vector `u` (Ritz value
+    /// `theta`), tapered to a window around its largest component when that loses at most
+    /// `margin / 10` of the quotient (`stability/localise.rs`: the served pass then skips the
+    /// rest of the nodes from the first step). Returns the mode's quotient (`theta` without
+    /// the window) and the applications of `C` this took (1 when a window was tried). The
+    /// Lanczos tracker keeps `u` itself for its next warm start.
+    fn set_vector(&mut self, op: &NodalOperator, theta: f64) -> (f64, usize) {
+        let u = self.tracker.vector();
+        let tried =
+            self.config.localise && u.len() == op.dim() && localise::worth_trying(u.len(), theta);
+        let windowed = if tried {
+            localised(op, u, theta, self.config.margin / 10.0)
+        } else {
+            None
+        };
+        let (mode, rho) = match &windowed {
+            Some((w, rho)) => (w.as_slice(), *rho),
+            None => (u, theta),
+        };
         let anchor = self.anchor.get_or_insert_with(Anchor::default);
         anchor.z.clear();
-        anchor.z.extend(
-            self.tracker
-                .vector()
-                .iter()
-                .zip(op.scale())
-                .map(|(u, s)| u * s),
-        );
+        anchor
+            .z
+            .extend(mode.iter().zip(op.scale()).map(|(u, s)| u * s));
         anchor.flush_below = FLUSH_RELATIVE * anchor.z.iter().fold(0.0_f64, |m, z| m.max(z.abs()));
+        tracing::debug!(
+            theta,
+            rho,
+            windowed = windowed.is_some(),
+            "lambda_max: Lanczos mode set"
+        );
+        (rho, usize::from(tried))
     }
 }
 

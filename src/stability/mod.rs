@@ -69,6 +69,7 @@ mod error;
 pub mod full_map;
 pub mod lambda_max;
 pub mod limit;
+mod localise;
 pub mod nodal;
 pub mod operator;
 mod power_pass;
