@@ -6,10 +6,13 @@
 //! it between them — against λmax bracketed by `LDLᵀ` inertia tests on the same operator.
 //! Without `localise` the same run serves a mode that is non-zero everywhere.
 
+mod stability_common;
+
 use mpm_dt::mpm::{Material, ReferenceStepper};
 use mpm_dt::problems::StandingWave;
 use mpm_dt::stability::{CertifiedConfig, NodalOperator, Stability, StabilityConfig, Tracking};
 use mpm_dt::{Boundary, Grid, Shape, StepLimit, Stepper};
+use stability_common::jittered;
 
 /// `λmax` of the nodal `C` of `stepper`'s state to `10⁻¹²` relative: bisection on Sylvester
 /// inertia tests (`eigenvalues_below`), from the Gershgorin bound down.
@@ -38,12 +41,8 @@ fn follow(boundary: Boundary, jitter: f64, localise: bool) {
     let cells = 2560;
     let grid = Grid::new(boundary, cells, 1.0);
     let wave = StandingWave::new(0.01, 1.0, 1.0, 1.0, 1.0);
-    let mut init = wave.uniform_particles(&grid, 2);
-    // A deterministic jitter of the particles (a fraction of their spacing h/2).
-    let spacing = 0.5 * grid.h;
-    for (p, x) in init.x.iter_mut().enumerate() {
-        *x += jitter * spacing * ((p as f64 * 0.618_033_988_7).fract() - 0.5);
-    }
+    // Two particles per cell, moved by up to `jitter` of their spacing (seeded).
+    let init = wave.particle_init(jittered(cells, 1.0, 2, jitter, 7));
     let material = Material::LinearElastic {
         youngs_modulus: 1.0,
     };

@@ -433,7 +433,8 @@ pub(crate) fn checkerboard_with_noise(n: usize, parity: impl Fn(usize) -> u64) -
         .collect()
 }
 
-fn dot(a: &[f64], b: &[f64]) -> f64 {
+/// `aᵀ b`.
+pub(super) fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 

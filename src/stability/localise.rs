@@ -26,7 +26,7 @@
 //! gains `1.3·10⁻⁴` on a jittered one; the mode one and two steps later gains `10⁻³` to
 //! `7·10⁻³` from the window.
 
-use super::lambda_max::SymmetricOperator;
+use super::lambda_max::{dot, SymmetricOperator};
 use super::nodal::NodalOperator;
 
 /// Width in nodes of the window (eight of the served pass's zero-test blocks).
@@ -78,12 +78,15 @@ pub(super) fn localised(
         let taper = (std::f64::consts::PI * (d as f64 + 0.5) / WINDOW as f64).sin();
         w[i] = u[i] * taper * taper;
     }
-    let mut cw = vec![0.0; n];
-    op.apply(&w, &mut cw, &mut Vec::new());
-    let num: f64 = w.iter().zip(&cw).map(|(a, b)| a * b).sum();
-    let den: f64 = w.iter().map(|a| a * a).sum();
-    let rho = num / den;
+    let rho = rayleigh_quotient(op, &w);
     (rho.is_finite() && rho > 0.0 && rho >= (1.0 - loss) * theta).then_some((w, rho))
+}
+
+/// `xᵀ C x / xᵀ x` (one application of `C`).
+fn rayleigh_quotient(op: &NodalOperator, x: &[f64]) -> f64 {
+    let mut cx = vec![0.0; x.len()];
+    op.apply(x, &mut cx, &mut Vec::new());
+    dot(x, &cx) / dot(x, x)
 }
 
 #[cfg(test)]
@@ -104,14 +107,6 @@ mod tests {
         NodalOperator::new(&s.view()).expect("valid view")
     }
 
-    /// The Rayleigh quotient of `x` on `op`.
-    fn quotient(op: &NodalOperator, x: &[f64]) -> f64 {
-        let mut y = vec![0.0; x.len()];
-        op.apply(x, &mut y, &mut Vec::new());
-        let num: f64 = x.iter().zip(&y).map(|(a, b)| a * b).sum();
-        num / x.iter().map(|a| a * a).sum::<f64>()
-    }
-
     #[test]
     fn a_window_keeps_the_quotient_within_the_loss_or_is_refused() {
         // The uniform layout's top mode is the checkerboard, spread over the whole bar: a
@@ -122,17 +117,17 @@ mod tests {
         let u: Vec<f64> = (0..n)
             .map(|i| if i % 2 == 0 { 1.0 } else { -1.0 } / (n as f64).sqrt())
             .collect();
-        let theta = quotient(&op, &u);
+        let theta = rayleigh_quotient(&op, &u);
         assert!(localised(&op, &u, theta, 0.0).is_none());
         let (w, rho) = localised(&op, &u, theta, 1e-2).expect("within 1 %");
         assert!(rho < theta && rho >= 0.99 * theta, "{rho} vs {theta}");
-        assert_eq!(rho.to_bits(), quotient(&op, &w).to_bits());
+        assert_eq!(rho.to_bits(), rayleigh_quotient(&op, &w).to_bits());
         let support: Vec<usize> = (0..n).filter(|&i| w[i] != 0.0).collect();
         assert_eq!(support.len(), WINDOW);
         // Too small a grid, or no positive Ritz value: no window.
         let small = operator(1024, Boundary::Periodic, 0.0);
         let us = vec![1.0; small.dim()];
-        assert!(localised(&small, &us, quotient(&small, &us), 1.0).is_none());
+        assert!(localised(&small, &us, rayleigh_quotient(&small, &us), 1.0).is_none());
         assert!(localised(&op, &u, 0.0, 1.0).is_none());
         assert!(localised(&op, &u, f64::NAN, 1.0).is_none());
     }
@@ -154,7 +149,7 @@ mod tests {
         let n = op.dim();
         let peak = 40;
         let u = packet(n, peak);
-        let theta = quotient(&op, &u);
+        let theta = rayleigh_quotient(&op, &u);
         let (w, _) = localised(&op, &u, theta, 1.0).expect("a loss of 100 % takes any window");
         let support: Vec<usize> = (0..n).filter(|&i| w[i] != 0.0).collect();
         assert_eq!(support.first(), Some(&0));
@@ -163,7 +158,7 @@ mod tests {
         let op = operator(4096, Boundary::Periodic, 0.01);
         let n = op.dim();
         let u = packet(n, peak);
-        let (w, _) = localised(&op, &u, quotient(&op, &u), 1.0).expect("any window");
+        let (w, _) = localised(&op, &u, rayleigh_quotient(&op, &u), 1.0).expect("any window");
         assert!(w[n - 1].abs() > 0.0);
         assert_eq!(w[peak + WINDOW / 2].to_bits(), 0);
         assert_eq!(w.iter().filter(|&&v| v != 0.0).count(), WINDOW);

@@ -502,7 +502,6 @@ mod avx2 {
 
     /// The running vectors of the interior loop: the sums, maxima and flags (`above` as a
     /// lane mask), and the last chunk's power step with where it goes.
-    #[derive(Clone, Copy)]
     struct Run {
         num: __m256d,
         den: __m256d,
