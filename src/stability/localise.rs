@@ -23,8 +23,9 @@
 //! the anchor's certificate (an `LDLᵀ` inertia test, independent of the mode) is unchanged.
 //! Measured on the 10⁵-particle standing wave (`W = 512`, a temporary harness): the cold
 //! start's Ritz vector windowed loses `1.9·10⁻⁵` of its quotient on the uniform layout, and
-//! gains `1.3·10⁻⁴` on a jittered one; the mode one and two steps later gains `10⁻³` to
-//! `7·10⁻³` from the window.
+//! gains `1.3·10⁻⁴` on a jittered one; windows of the served mode one and two steps later
+//! change its quotient by `−7.7·10⁻⁵` to `+7.5·10⁻³` (uniform layouts at amplitudes `10⁻²`
+//! and `10⁻³`, a jittered one at `10⁻²`).
 
 use super::lambda_max::{dot, SymmetricOperator};
 use super::nodal::NodalOperator;
