@@ -48,10 +48,12 @@
 //! The library logs through `tracing` and never installs a subscriber.
 
 pub mod controller;
+pub mod dimension;
 pub mod estimators;
 pub mod grid;
 pub mod limit;
 pub mod mpm;
+pub mod nd;
 pub mod nodal_stiffness;
 pub mod pass_summary;
 pub mod problems;
@@ -64,6 +66,7 @@ pub mod synchronized_velocity;
 pub mod view_weights;
 pub mod weights;
 
+pub use dimension::{Dim, Dimension, StateView, ViewOf};
 pub use grid::{Boundary, Grid};
 pub use limit::{Judgement, LimitError, Metrics, Proposal, RejectCause, StepLimit, Verdict};
 pub use nodal_stiffness::NodalStiffness;

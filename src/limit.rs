@@ -13,7 +13,7 @@
 //! Limits report numbers they computed (λmax, the eq 58 value, `dsm`, …) as named
 //! [`Metrics`], which the controller copies into its decision log.
 
-use crate::stepper::View;
+use crate::dimension::{Dim, Dimension, ViewOf};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -143,19 +143,22 @@ pub enum LimitError {
 }
 
 /// One constraint on the time step. Object safe: the controller holds
-/// `Box<dyn StepLimit>`.
-pub trait StepLimit {
+/// `Box<dyn StepLimit<D>>` (`D = 1` by default; [`crate::dimension`]).
+pub trait StepLimit<const D: usize = 1>
+where
+    Dim<D>: Dimension,
+{
     /// Short stable name used in logs and statistics (e.g. `"sound_speed"`).
     fn name(&self) -> &str;
 
     /// The largest step this limit allows from the committed state `state`.
-    fn propose(&mut self, state: &View<'_>) -> Result<Proposal, LimitError>;
+    fn propose(&mut self, state: &ViewOf<'_, D>) -> Result<Proposal, LimitError>;
 
     /// Judges a trial of step `dt` from `before` (committed) to `after` (trial).
     fn judge(
         &mut self,
-        before: &View<'_>,
-        after: &View<'_>,
+        before: &ViewOf<'_, D>,
+        after: &ViewOf<'_, D>,
         dt: f64,
     ) -> Result<Judgement, LimitError> {
         let _ = (before, after, dt);
@@ -163,11 +166,11 @@ pub trait StepLimit {
     }
 
     /// Records an accepted step (update histories, warm starts).
-    fn accepted(&mut self, before: &View<'_>, after: &View<'_>, dt: f64) {
+    fn accepted(&mut self, before: &ViewOf<'_, D>, after: &ViewOf<'_, D>, dt: f64) {
         let _ = (before, after, dt);
     }
 
-    /// Whether this limit reads [`View::nodal_stiffness`] (default `false`); the controller
+    /// Whether this limit reads [`crate::View::nodal_stiffness`] (default `false`); the controller
     /// then asks its stepper to provide it ([`crate::Stepper::provide_nodal_stiffness`]).
     fn reads_nodal_stiffness(&self) -> bool {
         false

@@ -18,6 +18,7 @@
 //! from that state uses, and what the estimators of Section 4 and the stability analysis of
 //! Section 6 read.
 
+use crate::dimension::{Dim, Dimension, ViewOf};
 use crate::grid::Grid;
 use crate::nodal_stiffness::NodalStiffness;
 use crate::pass_summary::PassSummary;
@@ -161,8 +162,11 @@ pub enum StepError {
 }
 
 /// An explicit MPM solver as the controller drives it. Object safe: the controller takes
-/// `&mut dyn Stepper`.
-pub trait Stepper {
+/// `&mut dyn Stepper<D>` (`D = 1` by default; [`crate::dimension`]).
+pub trait Stepper<const D: usize = 1>
+where
+    Dim<D>: Dimension,
+{
     /// Time of the committed state.
     fn time(&self) -> f64;
 
@@ -181,10 +185,10 @@ pub trait Stepper {
     fn reject(&mut self);
 
     /// The committed state.
-    fn view(&self) -> View<'_>;
+    fn view(&self) -> ViewOf<'_, D>;
 
     /// The pending trial state, if any.
-    fn trial_view(&self) -> Option<View<'_>>;
+    fn trial_view(&self) -> Option<ViewOf<'_, D>>;
 
     /// Asks the stepper to accumulate the nodal stiffness ([`View::nodal_stiffness`]) in
     /// the states it computes from now on (`true`) or to stop (`false`); returns whether it

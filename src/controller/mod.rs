@@ -183,7 +183,7 @@ enum BoundName {
 /// finite (`crate::pass_summary`); else a vectorised pass per field confirms the normal
 /// case (all finite) and only a failing field is searched element by element for the first
 /// bad index.
-fn first_nonfinite(view: &View<'_>) -> Option<(&'static str, usize, f64)> {
+pub(crate) fn first_nonfinite(view: &View<'_>) -> Option<(&'static str, usize, f64)> {
     if view.trusted_summary().is_some() {
         return None;
     }

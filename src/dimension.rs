@@ -1,0 +1,78 @@
+//! The spatial dimension as a type parameter: one [`crate::Stepper`], one
+//! [`crate::StepLimit`] and one controller for d = 1, 2, 3.
+//!
+//! The traits take the dimension as a const generic, `Stepper<const D: usize = 1>`, and the
+//! view they hand around is the dimension's own type, [`ViewOf<'a, D>`]:
+//!
+//! | `D` | view | particle fields |
+//! |---|---|---|
+//! | 1 | [`crate::View`] | `&[f64]` (the 1D solver's layout, unchanged) |
+//! | 2, 3 | [`crate::nd::ViewNd`] | `&[SVector<f64, D>]`, `&[SMatrix<f64, D, D>]` |
+//!
+//! `D = 1` is the default, so `dyn Stepper`, `Box<dyn StepLimit>` and `Controller` keep
+//! meaning the 1D ones; a 2D solver is a `&mut dyn Stepper<2>`. The 1D view keeps its scalar
+//! slices because the 1D kernels (and every result they pin) are written against them.
+
+use crate::nd::ViewNd;
+use crate::stepper::View;
+
+/// The dimension `D` as a type (`Dim<2>`), so that it can carry the view type.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Dim<const D: usize>;
+
+/// What a dimension fixes: the type of a read-only state view.
+pub trait Dimension {
+    /// The number of spatial dimensions.
+    const D: usize;
+    /// A read-only view of one state of a solver in this dimension.
+    type View<'a>: StateView;
+}
+
+impl Dimension for Dim<1> {
+    const D: usize = 1;
+    type View<'a> = View<'a>;
+}
+
+impl Dimension for Dim<2> {
+    const D: usize = 2;
+    type View<'a> = ViewNd<'a, 2>;
+}
+
+impl Dimension for Dim<3> {
+    const D: usize = 3;
+    type View<'a> = ViewNd<'a, 3>;
+}
+
+/// The view type of dimension `D`: [`View`] for `D = 1`, [`ViewNd`] for `D = 2, 3`.
+pub type ViewOf<'a, const D: usize> = <Dim<D> as Dimension>::View<'a>;
+
+/// What the controller reads from a view of any dimension.
+pub trait StateView {
+    /// Time `t` of this state.
+    fn time(&self) -> f64;
+    /// Number of accepted steps that led to this state.
+    fn step_index(&self) -> u64;
+    /// Number of particles.
+    fn particle_count(&self) -> usize;
+    /// The first non-finite value among the particle positions, velocities, stresses and
+    /// deformation gradients (in that order), as (field name, particle index, value).
+    fn first_nonfinite(&self) -> Option<(&'static str, usize, f64)>;
+}
+
+impl StateView for View<'_> {
+    fn time(&self) -> f64 {
+        self.t
+    }
+
+    fn step_index(&self) -> u64 {
+        self.step
+    }
+
+    fn particle_count(&self) -> usize {
+        self.x.len()
+    }
+
+    fn first_nonfinite(&self) -> Option<(&'static str, usize, f64)> {
+        crate::controller::first_nonfinite(self)
+    }
+}

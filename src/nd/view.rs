@@ -1,0 +1,114 @@
+//! A read-only view of one state of a d-dimensional MPM solver: what the limits, the
+//! estimators and the controller read. The d-dimensional counterpart of [`crate::View`].
+
+use super::{GridNd, Tensor, Vector, WeightsNd};
+use crate::dimension::StateView;
+
+/// A read-only view of one state of a `D`-dimensional solver. Particle slices all have the
+/// number of particles as length, nodal slices `grid.n_nodes()`.
+///
+/// The material enters through each particle's *tangent* Lamé moduli: for a small
+/// perturbation of the velocity gradient `δL` about the current state the stress changes
+/// by `dt (λ_t tr(δε̇) I + 2 μ_t δε̇)`, `δε̇ = sym(δL)`. For hypoelastic linear elasticity
+/// they are the material's `λ`, `μ`; a solver whose tangent is anisotropic reports an
+/// isotropic pair that bounds its P-wave modulus `λ_t + 2μ_t` from above.
+#[derive(Clone, Copy, Debug)]
+pub struct ViewNd<'a, const D: usize> {
+    /// Time `t` of this state.
+    pub t: f64,
+    /// Number of accepted steps that led to this state.
+    pub step: u64,
+    /// The background grid.
+    pub grid: &'a GridNd<D>,
+    /// Particle positions `x_p`.
+    pub x: &'a [Vector<D>],
+    /// Particle velocities `v_p`.
+    pub v: &'a [Vector<D>],
+    /// Particle Cauchy stresses `σ_p`.
+    pub sigma: &'a [Tensor<D>],
+    /// Deformation gradients `F_p`.
+    pub f: &'a [Tensor<D>],
+    /// Initial particle volumes `V⁰_p` (current volume `det(F_p) V⁰_p`).
+    pub volume0: &'a [f64],
+    /// Particle masses `m_p`.
+    pub mass: &'a [f64],
+    /// Tangent Lamé modulus `λ_t` per particle.
+    pub lame_lambda: &'a [f64],
+    /// Tangent shear modulus `μ_t` per particle.
+    pub lame_mu: &'a [f64],
+    /// Current density `ρ_p = m_p / (det(F_p) V⁰_p)`.
+    pub density: &'a [f64],
+    /// `S_ip` and `∇S_ip` at this state's particle positions.
+    pub weights: &'a WeightsNd<D>,
+    /// Nodal masses `m_i = Σ_p S_ip m_p`.
+    pub node_mass: &'a [f64],
+    /// Nodal velocities `v_i` (zero at inactive and constrained nodes).
+    pub node_velocity: &'a [Vector<D>],
+    /// Nodal accelerations `a_i` (zero at inactive and constrained nodes).
+    pub node_acceleration: &'a [Vector<D>],
+    /// Whether a node is active: not constrained and with mass above the solver's threshold.
+    pub node_active: &'a [bool],
+}
+
+impl<const D: usize> ViewNd<'_, D> {
+    /// Number of particles.
+    pub fn n_particles(&self) -> usize {
+        self.x.len()
+    }
+
+    /// Number of nodes.
+    pub fn n_nodes(&self) -> usize {
+        self.node_mass.len()
+    }
+
+    /// P-wave speed of particle `p`, `c_p = √((λ_t + 2μ_t)/ρ)`.
+    pub fn p_wave_speed(&self, p: usize) -> f64 {
+        ((self.lame_lambda[p] + 2.0 * self.lame_mu[p]) / self.density[p]).sqrt()
+    }
+
+    /// S-wave speed of particle `p`, `c_s = √(μ_t/ρ)`.
+    pub fn s_wave_speed(&self, p: usize) -> f64 {
+        (self.lame_mu[p] / self.density[p]).sqrt()
+    }
+}
+
+impl<const D: usize> StateView for ViewNd<'_, D> {
+    fn time(&self) -> f64 {
+        self.t
+    }
+
+    fn step_index(&self) -> u64 {
+        self.step
+    }
+
+    fn particle_count(&self) -> usize {
+        self.x.len()
+    }
+
+    fn first_nonfinite(&self) -> Option<(&'static str, usize, f64)> {
+        fn scan<'b, I: Iterator<Item = &'b f64>>(p: usize, it: I) -> Option<(usize, f64)> {
+            it.copied().find(|v| !v.is_finite()).map(|v| (p, v))
+        }
+        for (p, x) in self.x.iter().enumerate() {
+            if let Some((p, v)) = scan(p, x.iter()) {
+                return Some(("x", p, v));
+            }
+        }
+        for (p, x) in self.v.iter().enumerate() {
+            if let Some((p, v)) = scan(p, x.iter()) {
+                return Some(("v", p, v));
+            }
+        }
+        for (p, x) in self.sigma.iter().enumerate() {
+            if let Some((p, v)) = scan(p, x.iter()) {
+                return Some(("sigma", p, v));
+            }
+        }
+        for (p, x) in self.f.iter().enumerate() {
+            if let Some((p, v)) = scan(p, x.iter()) {
+                return Some(("F", p, v));
+            }
+        }
+        None
+    }
+}

@@ -1,0 +1,158 @@
+//! The weights `S_ip` and gradients `∇S_ip` of a d-dimensional solver in fixed-width
+//! particle-major storage (ELLPACK, as the 1D [`crate::Weights`]): for particle `p` the node
+//! indices `nodes[p·w .. p·w + w]`, the weights `s[..]` and the gradients `grad[..]`.
+//! `w` is the stencil's node count (`3^d` for GIMP and quadratic B-splines, `2^d` for the
+//! linear hat); padding slots carry weight and gradient zero and a valid node index.
+//!
+//! A user's solver fills this from its own kernels (for instance the effective gradients of
+//! MLS-MPM) with [`WeightsNd::from_rows`]; the reference solver fills it from tensor products.
+
+use super::Vector;
+
+/// `S` and `∇S` in fixed-width particle-major storage.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct WeightsNd<const D: usize> {
+    n_nodes: usize,
+    width: usize,
+    nodes: Vec<u32>,
+    s: Vec<f64>,
+    grad: Vec<Vector<D>>,
+}
+
+/// Why a set of weight rows could not be stored.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum WeightsNdError {
+    /// The arrays do not hold `width` entries per particle.
+    #[error("weights: {what} has {len} entries, expected {expected} (width {width})")]
+    Length {
+        /// Which array.
+        what: &'static str,
+        /// Its length.
+        len: usize,
+        /// The expected length.
+        expected: usize,
+        /// The row width.
+        width: usize,
+    },
+    /// A node index is out of range.
+    #[error("weights: particle {particle} refers to node {node} (n_nodes = {n_nodes})")]
+    NodeOutOfRange {
+        /// Particle index.
+        particle: usize,
+        /// The node index.
+        node: usize,
+        /// Number of nodes.
+        n_nodes: usize,
+    },
+    /// A weight or gradient is not finite.
+    #[error("weights: non-finite value at particle {particle}")]
+    NonFinite {
+        /// Particle index.
+        particle: usize,
+    },
+}
+
+impl<const D: usize> WeightsNd<D> {
+    /// Empty weights of rows `width` wide over `n_nodes` nodes (no particles).
+    pub fn new(n_nodes: usize, width: usize) -> Self {
+        Self {
+            n_nodes,
+            width,
+            ..Self::default()
+        }
+    }
+
+    /// Weights from whole arrays of `width` entries per particle, checked.
+    pub fn from_rows(
+        n_nodes: usize,
+        width: usize,
+        nodes: Vec<u32>,
+        s: Vec<f64>,
+        grad: Vec<Vector<D>>,
+    ) -> Result<Self, WeightsNdError> {
+        let n = if width == 0 { 0 } else { nodes.len() / width };
+        let expected = n * width;
+        for (what, len) in [("nodes", nodes.len()), ("s", s.len()), ("grad", grad.len())] {
+            if len != expected || width == 0 && len != 0 {
+                return Err(WeightsNdError::Length {
+                    what,
+                    len,
+                    expected,
+                    width,
+                });
+            }
+        }
+        for (k, &node) in nodes.iter().enumerate() {
+            if node as usize >= n_nodes {
+                return Err(WeightsNdError::NodeOutOfRange {
+                    particle: k / width,
+                    node: node as usize,
+                    n_nodes,
+                });
+            }
+            if !s[k].is_finite() || grad[k].iter().any(|g| !g.is_finite()) {
+                return Err(WeightsNdError::NonFinite {
+                    particle: k / width,
+                });
+            }
+        }
+        Ok(Self {
+            n_nodes,
+            width,
+            nodes,
+            s,
+            grad,
+        })
+    }
+
+    /// Mutable access to the three arrays for an in-place refill of `n_particles` rows (the
+    /// reference solver's hot path; entries must stay in range, which the caller ensures).
+    pub fn storage_mut(
+        &mut self,
+        n_particles: usize,
+    ) -> (&mut Vec<u32>, &mut Vec<f64>, &mut Vec<Vector<D>>) {
+        let len = n_particles * self.width;
+        self.nodes.resize(len, 0);
+        self.s.resize(len, 0.0);
+        self.grad.resize(len, Vector::<D>::zeros());
+        (&mut self.nodes, &mut self.s, &mut self.grad)
+    }
+
+    /// Number of nodes.
+    pub fn n_nodes(&self) -> usize {
+        self.n_nodes
+    }
+
+    /// Number of particles (rows).
+    pub fn n_particles(&self) -> usize {
+        if self.width == 0 {
+            0
+        } else {
+            self.nodes.len() / self.width
+        }
+    }
+
+    /// Entries per particle.
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Node indices of particle `p`'s row.
+    #[inline]
+    pub fn nodes_of(&self, p: usize) -> &[u32] {
+        &self.nodes[p * self.width..(p + 1) * self.width]
+    }
+
+    /// Weights `S_ip` of particle `p`'s row.
+    #[inline]
+    pub fn s_of(&self, p: usize) -> &[f64] {
+        &self.s[p * self.width..(p + 1) * self.width]
+    }
+
+    /// Gradients `∇S_ip` of particle `p`'s row.
+    #[inline]
+    pub fn grad_of(&self, p: usize) -> &[Vector<D>] {
+        &self.grad[p * self.width..(p + 1) * self.width]
+    }
+}
