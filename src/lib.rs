@@ -50,6 +50,7 @@
 pub mod controller;
 pub mod dimension;
 pub mod estimators;
+pub mod fmt_num;
 pub mod grid;
 pub mod limit;
 pub mod mpm;
