@@ -14,6 +14,7 @@
 //! [`Metrics`], which the controller copies into its decision log.
 
 use crate::dimension::{Dim, Dimension, ViewOf};
+use crate::fmt_num::Num;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -119,7 +120,7 @@ impl Judgement {
 #[non_exhaustive]
 pub enum LimitError {
     /// The state holds a value the limit cannot work with.
-    #[error("limit {limit}: invalid {field} at index {index} (value {value}) at t = {t}")]
+    #[error("limit {limit}: invalid {field} at index {index} (value {}) at t = {}", Num(*value), Num(*t))]
     InvalidState {
         /// The limit's name.
         limit: String,

@@ -19,6 +19,7 @@
 //! Section 6 read.
 
 use crate::dimension::{Dim, Dimension, ViewOf};
+use crate::fmt_num::Num;
 use crate::grid::Grid;
 use crate::nodal_stiffness::NodalStiffness;
 use crate::pass_summary::PassSummary;
@@ -104,7 +105,7 @@ impl View<'_> {
 #[non_exhaustive]
 pub enum StepError {
     /// `dt` is not a positive finite number.
-    #[error("invalid time step dt = {dt} at t = {t}")]
+    #[error("invalid time step dt = {} at t = {}", Num(*dt), Num(*t))]
     InvalidDt {
         /// The offending step.
         dt: f64,
@@ -112,7 +113,7 @@ pub enum StepError {
         t: f64,
     },
     /// A trial produced a NaN or infinite value.
-    #[error("non-finite {field} at particle {index} in the trial from t = {t} (step {step}) with dt = {dt}")]
+    #[error("non-finite {field} at particle {index} in the trial from t = {} (step {step}) with dt = {}", Num(*t), Num(*dt))]
     NonFinite {
         /// Which field (`"x"`, `"v"`, `"sigma"`, `"F"`).
         field: &'static str,
@@ -126,7 +127,7 @@ pub enum StepError {
         dt: f64,
     },
     /// A particle left a non-periodic domain.
-    #[error("particle {index} left the domain (x = {x}) in the trial from t = {t} (step {step}) with dt = {dt}")]
+    #[error("particle {index} left the domain (x = {}) in the trial from t = {} (step {step}) with dt = {}", Num(*x), Num(*t), Num(*dt))]
     OutOfDomain {
         /// Particle index.
         index: usize,
@@ -140,7 +141,7 @@ pub enum StepError {
         dt: f64,
     },
     /// A deformation gradient became non-positive (material inverted).
-    #[error("particle {index} inverted (F = {f}) in the trial from t = {t} (step {step}) with dt = {dt}")]
+    #[error("particle {index} inverted (F = {}) in the trial from t = {} (step {step}) with dt = {}", Num(*f), Num(*t), Num(*dt))]
     Inverted {
         /// Particle index.
         index: usize,
@@ -156,7 +157,8 @@ pub enum StepError {
     /// `accept` was called with no trial pending.
     #[error("accept() called with no trial step pending")]
     NoTrial,
-    /// A solver-specific failure (for users' steppers).
+    /// A solver-specific failure (for users' steppers). The controller does not retry it
+    /// with a smaller step: the run ends with the message.
     #[error("{0}")]
     Other(String),
 }

@@ -134,7 +134,7 @@ impl Default for ControllerConfig {
 #[non_exhaustive]
 pub enum ConfigError {
     /// A number is outside its allowed range.
-    #[error("controller config: {field} = {value} is invalid: must be {expected}")]
+    #[error("controller config: {field} = {} is invalid: must be {expected}", crate::fmt_num::Num(*value))]
     OutOfRange {
         /// Field path, e.g. `"safety"` or `"temporal.rtol"`.
         field: &'static str,
@@ -144,7 +144,7 @@ pub enum ConfigError {
         expected: &'static str,
     },
     /// Two fields contradict each other.
-    #[error("controller config: {field} = {value} contradicts {other} = {other_value}")]
+    #[error("controller config: {field} = {} contradicts {other} = {}", crate::fmt_num::Num(*value), crate::fmt_num::Num(*other_value))]
     Inconsistent {
         /// The field reported.
         field: &'static str,

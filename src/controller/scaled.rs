@@ -9,8 +9,8 @@
 //! `scale_safety(f)` multiplies the factor by `f`. The wrapper does not forward
 //! `scale_safety` (the factor is applied once, here).
 
+use crate::dimension::{Dim, Dimension, ViewOf};
 use crate::limit::{Judgement, LimitError, Proposal, RejectCause, StepLimit};
-use crate::stepper::View;
 
 /// A limit whose proposal is scaled by a factor the controller can lower.
 #[derive(Debug)]
@@ -19,7 +19,7 @@ pub struct SafetyScaled<L> {
     factor: f64,
 }
 
-impl<L: StepLimit> SafetyScaled<L> {
+impl<L> SafetyScaled<L> {
     /// Wraps `inner` with factor 1.
     pub fn new(inner: L) -> Self {
         Self { inner, factor: 1.0 }
@@ -36,12 +36,15 @@ impl<L: StepLimit> SafetyScaled<L> {
     }
 }
 
-impl<L: StepLimit> StepLimit for SafetyScaled<L> {
+impl<L: StepLimit<D>, const D: usize> StepLimit<D> for SafetyScaled<L>
+where
+    Dim<D>: Dimension,
+{
     fn name(&self) -> &str {
         self.inner.name()
     }
 
-    fn propose(&mut self, state: &View<'_>) -> Result<Proposal, LimitError> {
+    fn propose(&mut self, state: &ViewOf<'_, D>) -> Result<Proposal, LimitError> {
         let mut p = self.inner.propose(state)?;
         p.dt *= self.factor;
         if self.factor < 1.0 {
@@ -52,14 +55,14 @@ impl<L: StepLimit> StepLimit for SafetyScaled<L> {
 
     fn judge(
         &mut self,
-        before: &View<'_>,
-        after: &View<'_>,
+        before: &ViewOf<'_, D>,
+        after: &ViewOf<'_, D>,
         dt: f64,
     ) -> Result<Judgement, LimitError> {
         self.inner.judge(before, after, dt)
     }
 
-    fn accepted(&mut self, before: &View<'_>, after: &View<'_>, dt: f64) {
+    fn accepted(&mut self, before: &ViewOf<'_, D>, after: &ViewOf<'_, D>, dt: f64) {
         self.inner.accepted(before, after, dt);
     }
 

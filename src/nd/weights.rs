@@ -71,7 +71,7 @@ impl<const D: usize> WeightsNd<D> {
         s: Vec<f64>,
         grad: Vec<Vector<D>>,
     ) -> Result<Self, WeightsNdError> {
-        let n = if width == 0 { 0 } else { nodes.len() / width };
+        let n = nodes.len().checked_div(width).unwrap_or(0);
         let expected = n * width;
         for (what, len) in [("nodes", nodes.len()), ("s", s.len()), ("grad", grad.len())] {
             if len != expected || width == 0 && len != 0 {
@@ -126,11 +126,7 @@ impl<const D: usize> WeightsNd<D> {
 
     /// Number of particles (rows).
     pub fn n_particles(&self) -> usize {
-        if self.width == 0 {
-            0
-        } else {
-            self.nodes.len() / self.width
-        }
+        self.nodes.len().checked_div(self.width).unwrap_or(0)
     }
 
     /// Entries per particle.

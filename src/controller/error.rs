@@ -1,0 +1,101 @@
+//! Why the controller stopped: [`ControllerError`].
+
+use super::config::ConfigError;
+use super::decision::Decision;
+#[cfg(doc)]
+use super::Controller;
+use crate::fmt_num::Num;
+use crate::limit::{LimitError, RejectCause};
+use crate::stepper::StepError;
+
+/// Why the controller stopped.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ControllerError {
+    /// The configuration is invalid.
+    #[error(transparent)]
+    Config(#[from] ConfigError),
+    /// One step was rejected `count` times in a row.
+    #[error("{count} consecutive rejections at t = {} (last dt = {}, cause {}{})", Num(*t), Num(last.dt), last.cause.map_or("none", RejectCause::as_str), last.message.as_deref().map(|m| format!(": {m}")).unwrap_or_default())]
+    TooManyRejections {
+        /// Rejections in a row.
+        count: u32,
+        /// Time of the committed state.
+        t: f64,
+        /// The last decision.
+        last: Box<Decision>,
+    },
+    /// The step would fall below `dt_min`, or be too small to advance `t` in floating
+    /// point (below 64 ulps of `t`).
+    #[error("step {} too small (dt_min = {}) at t = {} (bound by {binding})", Num(*dt), Num(*dt_min), Num(*t))]
+    StepTooSmall {
+        /// The step the rules gave.
+        dt: f64,
+        /// The configured floor.
+        dt_min: f64,
+        /// Time of the committed state.
+        t: f64,
+        /// What bound the step.
+        binding: String,
+        /// The last decision of this step, if any attempt was made.
+        last: Option<Box<Decision>>,
+    },
+    /// Nothing bounds the first step: no limit proposes one and `dt_initial` is unset.
+    #[error("no initial step at t = {}: no limit proposes a step and dt_initial is not set", Num(*t))]
+    NoInitialStep {
+        /// Time of the committed state.
+        t: f64,
+    },
+    /// A limit proposed a step that is not a positive number.
+    #[error("limit {limit} proposed dt = {} at t = {}", Num(*dt), Num(*t))]
+    InvalidProposal {
+        /// The limit.
+        limit: String,
+        /// Its proposal.
+        dt: f64,
+        /// Time of the committed state.
+        t: f64,
+    },
+    /// A limit failed to evaluate.
+    #[error("at t = {}: {source}", Num(*t))]
+    Limit {
+        /// Time of the committed state.
+        t: f64,
+        /// The limit's error.
+        source: LimitError,
+    },
+    /// The stepper failed in a way a smaller step cannot fix.
+    #[error("at t = {}: {source}", Num(*t))]
+    Stepper {
+        /// Time of the committed state.
+        t: f64,
+        /// The stepper's error.
+        source: StepError,
+    },
+    /// `t_end` is not after the stepper's time, or not a number.
+    #[error("t_end = {} is not after t = {}", Num(*t_end), Num(*t))]
+    InvalidEnd {
+        /// Time of the committed state.
+        t: f64,
+        /// The requested end.
+        t_end: f64,
+    },
+    /// The stepper accepted a trial of step `dt` from `t` but reports the time `t_after`:
+    /// a trial must advance the time by `dt` (a stepper that keeps or moves back its time
+    /// would make [`Controller::run_until`] loop forever).
+    #[error("the stepper did not advance its time: trial dt = {} from t = {}, time after accept = {}", Num(*dt), Num(*t), Num(*t_after))]
+    NoProgress {
+        /// Time of the committed state before the step.
+        t: f64,
+        /// The accepted step.
+        dt: f64,
+        /// The time the stepper reports after accepting it.
+        t_after: f64,
+    },
+    /// A checkpoint does not fit the controller's limits.
+    #[error("cannot restore checkpoint: {message}")]
+    Restore {
+        /// What does not fit.
+        message: String,
+    },
+}

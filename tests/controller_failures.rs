@@ -1,0 +1,165 @@
+//! Capability: the controller ends a run that cannot go on with a typed error instead of
+//! looping, retrying what a smaller step cannot cure, or dropping attempts from the log.
+
+use mpm_dt::controller::{Controller, ControllerConfig, ControllerError, Decision, Outcome};
+use mpm_dt::mpm::ReferenceStepper;
+use mpm_dt::scenario::Scenario;
+use mpm_dt::stability::{SoundSpeed, SoundSpeedConfig};
+use mpm_dt::{StepError, StepLimit, Stepper, View};
+
+/// How the wrapped solver misbehaves.
+#[derive(Clone, Copy, PartialEq)]
+enum Fault {
+    /// `accept` keeps the old state: time does not advance.
+    KeepsTime,
+    /// Every trial fails with a non-finite value (a smaller step might help).
+    NonFinite,
+    /// Every trial fails with a solver-specific error (a smaller step cannot help).
+    Other,
+}
+
+struct Faulty {
+    inner: ReferenceStepper,
+    fault: Fault,
+}
+
+impl Stepper for Faulty {
+    fn time(&self) -> f64 {
+        self.inner.time()
+    }
+    fn step_count(&self) -> u64 {
+        self.inner.step_count()
+    }
+    fn try_step(&mut self, dt: f64) -> Result<(), StepError> {
+        match self.fault {
+            Fault::KeepsTime => self.inner.try_step(dt),
+            Fault::NonFinite => Err(StepError::NonFinite {
+                field: "v",
+                index: 0,
+                t: self.inner.time(),
+                step: self.inner.step_count(),
+                dt,
+            }),
+            Fault::Other => Err(StepError::Other("linear solver diverged".into())),
+        }
+    }
+    fn accept(&mut self) -> Result<(), StepError> {
+        // KeepsTime: drop the trial and report success.
+        self.inner.reject();
+        Ok(())
+    }
+    fn reject(&mut self) {
+        self.inner.reject();
+    }
+    fn view(&self) -> View<'_> {
+        self.inner.view()
+    }
+    fn trial_view(&self) -> Option<View<'_>> {
+        self.inner.trial_view()
+    }
+}
+
+fn faulty(fault: Fault) -> Faulty {
+    let scenario = Scenario::from_json(r#"{"cells": 16, "t_end": 0.25}"#).unwrap();
+    Faulty {
+        inner: scenario.build().unwrap(),
+        fault,
+    }
+}
+
+fn sound() -> Vec<Box<dyn StepLimit>> {
+    vec![Box::new(
+        SoundSpeed::new(SoundSpeedConfig { alpha: 0.5 }).unwrap(),
+    )]
+}
+
+#[test]
+fn a_stepper_that_keeps_its_time_ends_the_run_with_no_progress() {
+    let mut s = faulty(Fault::KeepsTime);
+    let mut c = Controller::new(ControllerConfig::default(), sound()).unwrap();
+    // One call must fail: run_until would otherwise loop for ever.
+    let err = c.step(&mut s, 1.0).unwrap_err();
+    assert!(
+        matches!(err, ControllerError::NoProgress { t, t_after, .. } if t == 0.0 && t_after == 0.0),
+        "{err}"
+    );
+    let err = c.run_until(&mut s, 1.0, &mut |_| {}).unwrap_err();
+    assert!(matches!(err, ControllerError::NoProgress { .. }), "{err}");
+}
+
+#[test]
+fn run_until_an_end_not_after_t_is_invalid() {
+    let mut s = faulty(Fault::KeepsTime);
+    let mut c = Controller::new(ControllerConfig::default(), sound()).unwrap();
+    for t_end in [0.0, -1.0, f64::NAN] {
+        let err = c.run_until(&mut s, t_end, &mut |_| {}).unwrap_err();
+        assert!(matches!(err, ControllerError::InvalidEnd { .. }), "{err}");
+    }
+    assert_eq!(c.stats().accepted + c.stats().rejected, 0);
+}
+
+#[test]
+fn every_attempt_of_a_failed_step_reaches_the_callback() {
+    let mut s = faulty(Fault::NonFinite);
+    let config = ControllerConfig::default();
+    let max = config.max_consecutive_rejections;
+    let mut c = Controller::new(config, sound()).unwrap();
+    let mut seen: Vec<Decision> = Vec::new();
+    let err = c
+        .run_until(&mut s, 1.0, &mut |d| seen.push(d.clone()))
+        .unwrap_err();
+    let ControllerError::TooManyRejections { count, .. } = &err else {
+        panic!("expected TooManyRejections, got {err}");
+    };
+    assert_eq!(*count, max);
+    assert_eq!(seen.len(), max as usize, "one callback per attempt");
+    assert!(seen.iter().all(|d| d.outcome == Outcome::Rejected));
+    assert_eq!(
+        seen.iter().map(|d| d.attempt).collect::<Vec<_>>(),
+        (1..=max).collect::<Vec<_>>()
+    );
+    // The message names the cause as logged, and the stepper's own words.
+    let msg = err.to_string();
+    assert!(msg.contains("non_finite"), "{msg}");
+    assert!(!msg.contains("Some("), "{msg}");
+}
+
+#[test]
+fn a_solver_specific_failure_is_not_retried() {
+    let mut s = faulty(Fault::Other);
+    let mut c = Controller::new(ControllerConfig::default(), sound()).unwrap();
+    let mut callbacks = 0;
+    let err = c
+        .run_until(&mut s, 1.0, &mut |_| callbacks += 1)
+        .unwrap_err();
+    match &err {
+        ControllerError::Stepper {
+            source: StepError::Other(m),
+            ..
+        } => assert_eq!(m, "linear solver diverged"),
+        other => panic!("expected the stepper's own error, got {other}"),
+    }
+    assert_eq!(callbacks, 0, "no rejected attempt was made");
+    assert!(err.to_string().contains("linear solver diverged"));
+}
+
+#[test]
+fn error_messages_print_numbers_short() {
+    let err = ControllerError::InvalidEnd {
+        t: 1e300,
+        t_end: -1.234_567_890_123_456_7e-300,
+    };
+    let msg = err.to_string();
+    assert!(msg.len() < 80, "{msg}");
+    assert!(msg.contains("1e300"), "{msg}");
+    let step = StepError::Inverted {
+        index: 3,
+        f: 1.0 / 3.0,
+        t: 2e200,
+        step: 7,
+        dt: 1e-200,
+    };
+    let msg = step.to_string();
+    assert!(msg.len() < 120, "{msg}");
+    assert!(msg.contains("2e200") && msg.contains("1e-200"), "{msg}");
+}
