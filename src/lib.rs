@@ -70,6 +70,7 @@ pub mod weights;
 pub use dimension::{Dim, Dimension, StateView, ViewOf};
 pub use grid::{Boundary, Grid};
 pub use limit::{Judgement, LimitError, Metrics, Proposal, RejectCause, StepLimit, Verdict};
+pub use nd::ViewNd;
 pub use nodal_stiffness::NodalStiffness;
 pub use pass_summary::PassSummary;
 pub use shape::Shape;

@@ -6,10 +6,20 @@
 //! `S_ip = Π_a s_a(x_p,a − X_i,a)` and `∂_a S_ip = s'_a Π_{b≠a} s_b`.
 
 mod grid;
+mod kernels;
+mod material;
+mod particles;
+pub mod problems;
+mod shape;
+mod solver;
 mod view;
 mod weights;
 
 pub use grid::GridNd;
+pub use material::MaterialNd;
+pub use particles::{ParticlesNd, SetupNdError};
+pub use shape::{AxisStencil, ShapeNd};
+pub use solver::{SolverNd, INACTIVE_MASS_RATIO};
 pub use view::ViewNd;
 pub use weights::{WeightsNd, WeightsNdError};
 
@@ -19,3 +29,42 @@ use nalgebra::{SMatrix, SVector};
 pub type Vector<const D: usize> = SVector<f64, D>;
 /// A d×d tensor (stress, deformation gradient, velocity gradient).
 pub type Tensor<const D: usize> = SMatrix<f64, D, D>;
+
+/// `det(m)` of a small `D×D` tensor (closed form for `D ≤ 3`, elimination otherwise;
+/// nalgebra's `determinant` needs type-level dimensions a const generic cannot give).
+#[inline]
+pub fn det<const D: usize>(m: &Tensor<D>) -> f64 {
+    match D {
+        1 => m[(0, 0)],
+        2 => m[(0, 0)] * m[(1, 1)] - m[(0, 1)] * m[(1, 0)],
+        3 => {
+            m[(0, 0)] * (m[(1, 1)] * m[(2, 2)] - m[(1, 2)] * m[(2, 1)])
+                - m[(0, 1)] * (m[(1, 0)] * m[(2, 2)] - m[(1, 2)] * m[(2, 0)])
+                + m[(0, 2)] * (m[(1, 0)] * m[(2, 1)] - m[(1, 1)] * m[(2, 0)])
+        }
+        _ => {
+            let mut a = *m;
+            let mut det = 1.0;
+            for c in 0..D {
+                let piv = (c..D)
+                    .max_by(|&i, &j| a[(i, c)].abs().total_cmp(&a[(j, c)].abs()))
+                    .unwrap_or(c);
+                if a[(piv, c)] == 0.0 {
+                    return 0.0;
+                }
+                if piv != c {
+                    a.swap_rows(piv, c);
+                    det = -det;
+                }
+                det *= a[(c, c)];
+                for r in c + 1..D {
+                    let f = a[(r, c)] / a[(c, c)];
+                    for k in c..D {
+                        a[(r, k)] -= f * a[(c, k)];
+                    }
+                }
+            }
+            det
+        }
+    }
+}

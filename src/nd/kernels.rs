@@ -1,0 +1,231 @@
+//! The kernels of the d-dimensional USL step: weights at the particle positions,
+//! particle → grid, grid update and grid → particle. Written once for any `D` over the
+//! tensor-product stencil (`nodes_per_axis^D` entries per particle).
+
+use super::{GridNd, MaterialNd, ShapeNd, Tensor, Vector, WeightsNd};
+use crate::grid::Boundary;
+
+/// Fills `weights` with `S_ip`, `∇S_ip` at positions `x` (module docs of `shape`).
+/// Returns the first particle whose stencil leaves the stored nodes (a fixed axis), if any.
+pub(super) fn compute_weights<const D: usize>(
+    grid: &GridNd<D>,
+    shape: ShapeNd,
+    x: &[Vector<D>],
+    domain: &[Vector<D>],
+    weights: &mut WeightsNd<D>,
+) -> Result<(), usize> {
+    let n_axis = shape.nodes_per_axis();
+    let width = shape.width(D);
+    if weights.width() != width || weights.n_nodes() != grid.n_nodes() {
+        *weights = WeightsNd::new(grid.n_nodes(), width);
+    }
+    let strides: [usize; D] = std::array::from_fn(|a| grid.stride(a));
+    let (nodes, s, grad) = weights.storage_mut(x.len());
+    for p in 0..x.len() {
+        let st: [_; D] =
+            std::array::from_fn(|a| shape.axis(x[p][a] - grid.origin[a], domain[p][a], grid.h[a]));
+        // Storage index per axis of each of the stencil's nodes.
+        let mut idx = [[0usize; 3]; D];
+        for a in 0..D {
+            for (k, slot) in idx[a].iter_mut().enumerate().take(n_axis) {
+                match grid.storage_along(a, st[a].first + k as i64) {
+                    Some(i) => *slot = i * strides[a],
+                    None => return Err(p),
+                }
+            }
+        }
+        let base = p * width;
+        for m in 0..width {
+            let mut rest = m;
+            let mut node = 0;
+            let mut ks = [0usize; D];
+            for a in 0..D {
+                ks[a] = rest % n_axis;
+                rest /= n_axis;
+                node += idx[a][ks[a]];
+            }
+            let mut w = 1.0;
+            for a in 0..D {
+                w *= st[a].s[ks[a]];
+            }
+            let g = Vector::<D>::from_fn(|a, _| {
+                let mut v = st[a].d[ks[a]];
+                for b in 0..D {
+                    if b != a {
+                        v *= st[b].s[ks[b]];
+                    }
+                }
+                v
+            });
+            nodes[base + m] = node as u32;
+            s[base + m] = w;
+            grad[base + m] = g;
+        }
+    }
+    Ok(())
+}
+
+/// Particle → grid at one state (DESIGN "USL step in d dimensions"):
+/// `m_i = Σ S m_p`, `v_i = Σ S m_p v_p / m_i`,
+/// `a_i = (−Σ V_p σ_p ∇S_ip)/m_i + g` with `V_p = det(F_p) V⁰_p`; nodes that are
+/// constrained or have `m_i ≤ threshold` are inactive, with `v_i = a_i = 0`.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn particle_to_grid<const D: usize>(
+    weights: &WeightsNd<D>,
+    mass: &[f64],
+    volume0: &[f64],
+    v: &[Vector<D>],
+    sigma: &[Tensor<D>],
+    f: &[Tensor<D>],
+    gravity: &Vector<D>,
+    constrained: &[bool],
+    threshold: f64,
+    node_mass: &mut Vec<f64>,
+    node_v: &mut Vec<Vector<D>>,
+    node_a: &mut Vec<Vector<D>>,
+    active: &mut Vec<bool>,
+) {
+    let nn = weights.n_nodes();
+    node_mass.clear();
+    node_mass.resize(nn, 0.0);
+    node_v.clear();
+    node_v.resize(nn, Vector::<D>::zeros());
+    node_a.clear();
+    node_a.resize(nn, Vector::<D>::zeros());
+    for p in 0..v.len() {
+        let mp = mass[p];
+        let mv = v[p] * mp;
+        let vs = sigma[p] * (-(super::det(&f[p]) * volume0[p]));
+        for ((&i, &w), g) in weights
+            .nodes_of(p)
+            .iter()
+            .zip(weights.s_of(p))
+            .zip(weights.grad_of(p))
+        {
+            let i = i as usize;
+            node_mass[i] += w * mp;
+            node_v[i] += mv * w;
+            node_a[i] += vs * g;
+        }
+    }
+    active.clear();
+    active.resize(nn, false);
+    for i in 0..nn {
+        let m = node_mass[i];
+        if m > threshold && !constrained[i] {
+            active[i] = true;
+            node_v[i] /= m;
+            node_a[i] = node_a[i] / m + gravity;
+        } else {
+            node_v[i] = Vector::<D>::zeros();
+            node_a[i] = Vector::<D>::zeros();
+        }
+    }
+}
+
+/// Where a particle's update failed.
+pub(super) enum ParticleFault {
+    /// A non-finite value in this field.
+    NonFinite(&'static str, usize),
+    /// Left a fixed box (particle, coordinate).
+    OutOfDomain(usize, f64),
+    /// `det F ≤ 0` (particle, det F).
+    Inverted(usize, f64),
+}
+
+/// The committed state a step starts from.
+pub(super) struct Committed<'a, const D: usize> {
+    pub x: &'a [Vector<D>],
+    pub v: &'a [Vector<D>],
+    pub sigma: &'a [Tensor<D>],
+    pub f: &'a [Tensor<D>],
+    pub weights: &'a WeightsNd<D>,
+    pub node_a: &'a [Vector<D>],
+}
+
+/// The particle fields a step writes.
+pub(super) struct Written<'a, const D: usize> {
+    pub x: &'a mut [Vector<D>],
+    pub v: &'a mut [Vector<D>],
+    pub sigma: &'a mut [Tensor<D>],
+    pub f: &'a mut [Tensor<D>],
+    pub density: &'a mut [f64],
+    pub lame_lambda: &'a mut [f64],
+    pub lame_mu: &'a mut [f64],
+}
+
+/// Grid → particle: `v_p += dt Σ S a_i`, `L_p = Σ v_iⁿ⁺¹ ⊗ ∇S_ip`, `F ← F + dt L F`, the
+/// stress update, `x += dt v_pⁿ⁺¹` (periodic axes wrap into `[origin, origin + L)`).
+/// `node_v1` holds `v_iⁿ⁺¹ = v_i + dt a_i`.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn grid_to_particle<const D: usize>(
+    grid: &GridNd<D>,
+    material: &[MaterialNd],
+    mass: &[f64],
+    volume0: &[f64],
+    node_v1: &[Vector<D>],
+    dt: f64,
+    from: Committed<'_, D>,
+    into: Written<'_, D>,
+) -> Result<(), ParticleFault> {
+    for p in 0..from.x.len() {
+        let mut acc = Vector::<D>::zeros();
+        let mut l = Tensor::<D>::zeros();
+        for ((&i, &w), g) in from
+            .weights
+            .nodes_of(p)
+            .iter()
+            .zip(from.weights.s_of(p))
+            .zip(from.weights.grad_of(p))
+        {
+            let i = i as usize;
+            acc += from.node_a[i] * w;
+            l += node_v1[i] * g.transpose();
+        }
+        let v = from.v[p] + acc * dt;
+        let f = from.f[p] + l * from.f[p] * dt;
+        let sigma = material[p].update(&from.sigma[p], &l, &f, dt);
+        let mut x = from.x[p] + v * dt;
+        for a in 0..D {
+            let (lo, len) = (grid.origin[a], grid.length(a));
+            match grid.boundary[a] {
+                Boundary::Periodic => {
+                    if x[a] < lo || x[a] >= lo + len {
+                        x[a] = lo + (x[a] - lo).rem_euclid(len);
+                        if x[a] >= lo + len {
+                            x[a] = lo;
+                        }
+                    }
+                }
+                Boundary::Fixed => {
+                    if !(lo..=lo + len).contains(&x[a]) && x[a].is_finite() {
+                        return Err(ParticleFault::OutOfDomain(p, x[a]));
+                    }
+                }
+            }
+        }
+        for (name, ok) in [
+            ("x", x.iter().all(|c| c.is_finite())),
+            ("v", v.iter().all(|c| c.is_finite())),
+            ("sigma", sigma.iter().all(|c| c.is_finite())),
+            ("F", f.iter().all(|c| c.is_finite())),
+        ] {
+            if !ok {
+                return Err(ParticleFault::NonFinite(name, p));
+            }
+        }
+        let j = super::det(&f);
+        if j <= 0.0 {
+            return Err(ParticleFault::Inverted(p, j));
+        }
+        into.x[p] = x;
+        into.v[p] = v;
+        into.f[p] = f;
+        into.sigma[p] = sigma;
+        into.density[p] = mass[p] / (j * volume0[p]);
+        let (lt, mt) = material[p].tangent(j);
+        into.lame_lambda[p] = lt;
+        into.lame_mu[p] = mt;
+    }
+    Ok(())
+}

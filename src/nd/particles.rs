@@ -1,0 +1,203 @@
+//! The particles a d-dimensional solver starts from, and why a set of them is refused.
+
+use super::{GridNd, MaterialNd, ShapeNd, Vector};
+use crate::fmt_num::Num;
+use crate::grid::Boundary;
+
+/// Initial particle fields of a d-dimensional run. All vectors have one entry per particle.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ParticlesNd<const D: usize> {
+    /// Positions `x_p`.
+    pub x: Vec<Vector<D>>,
+    /// Velocities `v_p`.
+    pub v: Vec<Vector<D>>,
+    /// Masses `m_p`.
+    pub mass: Vec<f64>,
+    /// Initial volumes `V⁰_p` (density `m_p / V⁰_p`).
+    pub volume: Vec<f64>,
+    /// GIMP domain lengths per axis (ignored by the other shapes).
+    pub domain: Vec<Vector<D>>,
+    /// Material of each particle (inclusions and several bodies are per-particle materials).
+    pub material: Vec<MaterialNd>,
+}
+
+impl<const D: usize> ParticlesNd<D> {
+    /// Particles at rest filling the grid uniformly: `per_cell[a]` per axis in every cell,
+    /// particle `j` of cell `c` at `(c + (j + ½)/k)·h` per axis, each with the cell volume
+    /// shared equally, mass `density · volume`, domain lengths `h_a / k_a`.
+    pub fn uniform(
+        grid: &GridNd<D>,
+        per_cell: [usize; D],
+        density: f64,
+        material: MaterialNd,
+    ) -> Self {
+        let counts: [usize; D] = std::array::from_fn(|a| grid.cells[a] * per_cell[a]);
+        let n: usize = counts.iter().product();
+        let volume = grid.cell_volume() / per_cell.iter().product::<usize>() as f64;
+        let domain = Vector::<D>::from_fn(|a, _| grid.h[a] / per_cell[a] as f64);
+        let mut x = Vec::with_capacity(n);
+        for m in 0..n {
+            let mut rest = m;
+            x.push(Vector::<D>::from_fn(|a, _| {
+                let k = rest % counts[a];
+                rest /= counts[a];
+                grid.origin[a] + (k as f64 + 0.5) * domain[a]
+            }));
+        }
+        Self {
+            v: vec![Vector::<D>::zeros(); n],
+            mass: vec![density * volume; n],
+            volume: vec![volume; n],
+            domain: vec![domain; n],
+            material: vec![material; n],
+            x,
+        }
+    }
+
+    /// Number of particles.
+    pub fn len(&self) -> usize {
+        self.x.len()
+    }
+
+    /// Whether there are no particles.
+    pub fn is_empty(&self) -> bool {
+        self.x.is_empty()
+    }
+
+    /// Checks the particles against the grid and shape: equal lengths, finite values,
+    /// positive masses, volumes and domain lengths (GIMP: at most one cell), valid
+    /// materials, positions inside fixed boxes, quadratic B-splines on periodic axes only.
+    pub fn validate(&self, grid: &GridNd<D>, shape: ShapeNd) -> Result<(), SetupNdError> {
+        let n = self.x.len();
+        if n == 0 {
+            return Err(SetupNdError::NoParticles);
+        }
+        for (field, len) in [
+            ("v", self.v.len()),
+            ("mass", self.mass.len()),
+            ("volume", self.volume.len()),
+            ("domain", self.domain.len()),
+            ("material", self.material.len()),
+        ] {
+            if len != n {
+                return Err(SetupNdError::Length {
+                    field,
+                    len,
+                    expected: n,
+                });
+            }
+        }
+        for a in 0..D {
+            if !(grid.cells[a] >= 1 && grid.h[a].is_finite() && grid.h[a] > 0.0) {
+                return Err(SetupNdError::Grid { axis: a });
+            }
+            if shape == ShapeNd::BSpline2 && grid.boundary[a] == Boundary::Fixed {
+                return Err(SetupNdError::BSplineOnFixedAxis { axis: a });
+            }
+            if shape == ShapeNd::BSpline2 && grid.cells[a] < 3 {
+                return Err(SetupNdError::Grid { axis: a });
+            }
+        }
+        for p in 0..n {
+            let bad = |field: &'static str, value: f64| SetupNdError::Invalid {
+                field,
+                index: p,
+                value,
+            };
+            for a in 0..D {
+                let x = self.x[p][a];
+                if !x.is_finite() {
+                    return Err(bad("x", x));
+                }
+                if grid.boundary[a] == Boundary::Fixed {
+                    let lo = grid.origin[a];
+                    let hi = lo + grid.length(a);
+                    if !(lo..=hi).contains(&x) {
+                        return Err(SetupNdError::OutsideBox {
+                            index: p,
+                            axis: a,
+                            x,
+                        });
+                    }
+                }
+                if !self.v[p][a].is_finite() {
+                    return Err(bad("v", self.v[p][a]));
+                }
+                let l = self.domain[p][a];
+                if shape == ShapeNd::Gimp && !(l.is_finite() && l > 0.0 && l <= grid.h[a]) {
+                    return Err(bad("domain", l));
+                }
+            }
+            if !(self.mass[p].is_finite() && self.mass[p] > 0.0) {
+                return Err(bad("mass", self.mass[p]));
+            }
+            if !(self.volume[p].is_finite() && self.volume[p] > 0.0) {
+                return Err(bad("volume", self.volume[p]));
+            }
+            let m = self.material[p];
+            let e = m.youngs_modulus();
+            if !(e.is_finite() && e > 0.0) {
+                return Err(bad("youngs_modulus", e));
+            }
+            if !m.is_valid() {
+                return Err(bad("poisson_ratio", m.poisson_ratio()));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Why a d-dimensional solver could not be set up.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum SetupNdError {
+    /// No particles were given.
+    #[error("no particles")]
+    NoParticles,
+    /// A per-particle array has the wrong length.
+    #[error("particles: {field} has {len} entries, expected {expected}")]
+    Length {
+        /// Which array.
+        field: &'static str,
+        /// Its length.
+        len: usize,
+        /// The number of particles.
+        expected: usize,
+    },
+    /// A value is not finite or out of its range.
+    #[error("particles: invalid {field} {} at particle {index}", Num(*value))]
+    Invalid {
+        /// Which field.
+        field: &'static str,
+        /// Particle index.
+        index: usize,
+        /// The value.
+        value: f64,
+    },
+    /// A particle lies outside a fixed box.
+    #[error("particle {index} is outside the fixed box on axis {axis} (x = {})", Num(*x))]
+    OutsideBox {
+        /// Particle index.
+        index: usize,
+        /// The axis.
+        axis: usize,
+        /// Its coordinate.
+        x: f64,
+    },
+    /// Quadratic B-splines need periodic axes.
+    #[error("shape bspline2 needs a periodic boundary, axis {axis} is fixed")]
+    BSplineOnFixedAxis {
+        /// The axis.
+        axis: usize,
+    },
+    /// The grid of an axis is invalid (no cells, non-positive or non-finite spacing, or
+    /// fewer than 3 cells for B-splines).
+    #[error("grid: invalid cells or spacing on axis {axis}")]
+    Grid {
+        /// The axis.
+        axis: usize,
+    },
+    /// The gravity vector is not finite.
+    #[error("gravity is not finite")]
+    Gravity,
+}
