@@ -53,6 +53,7 @@ pub mod estimators;
 pub mod fmt_num;
 pub mod grid;
 pub mod limit;
+pub mod limits_nd;
 pub mod mpm;
 pub mod nd;
 pub mod nodal_stiffness;

@@ -87,8 +87,8 @@ impl<const D: usize> PlaneWave<D> {
         };
         let wave_vector =
             Vector::<D>::from_fn(|a, _| 2.0 * std::f64::consts::PI * k[a] / grid.length(a));
-        for a in 0..D {
-            if k[a] != 0.0 && grid.boundary[a] == Boundary::Fixed {
+        for (a, &ka) in k.iter().enumerate() {
+            if ka != 0.0 && grid.boundary[a] == Boundary::Fixed {
                 return Err(PlaneWaveError::NotPeriodic { axis: a });
             }
         }

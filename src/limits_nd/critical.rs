@@ -1,0 +1,179 @@
+//! Critical steps of a d-dimensional layout, for verification (DESIGN "Contracts for any
+//! dimension", `critical_dt`).
+//!
+//! * `dt_sound = min_a h_a / max_p c_p` — the speed-of-sound step at rest;
+//! * `lambda_max_nodal = λmax(M⁻¹K)` by Lanczos run to a relative residual of `1e-10`
+//!   ([`super::stiffness`]) and, on small problems, checked against the dense symmetric
+//!   eigenvalues; `dt_eq56 = √(2/λmax)`;
+//! * `dt_empirical` — bisection on real runs of the reference solver: from
+//!   `v = A c_p sin(2π x_0/L_0) e_0` plus seeded noise `10⁻⁶ A` on every component of `v`
+//!   and `σ`, `F = I`, `steps` steps (4000 in the contract), unstable when the energy exceeds
+//!   10× its start, a value is not finite, or some `det F ≤ 0`.
+//!
+//! The frozen-particle full map (velocity and stress) of the 1D tools is not carried over
+//! to d dimensions yet; `dt_full_map` is `None`.
+
+use super::stiffness::{dense_lambda_max, lanczos};
+use crate::dimension::{Dim, Dimension};
+use crate::nd::{SolverNd, Tensor, Vector, ViewNd};
+use crate::stepper::Stepper;
+use serde::Serialize;
+
+/// Above this many nodal unknowns the dense check is skipped.
+pub const DENSE_LIMIT: usize = 2500;
+
+/// The verification table of one layout.
+#[derive(Clone, Debug, Serialize)]
+pub struct CriticalTable {
+    /// Cell size per axis.
+    pub cell_size: Vec<f64>,
+    /// Largest P-wave speed over the particles.
+    pub c_p: f64,
+    /// `min_a h_a / c_p`.
+    pub dt_sound: f64,
+    /// `λmax(M⁻¹K)` (1/s²), Lanczos.
+    pub lambda_max_nodal: f64,
+    /// The same from the dense matrix, on small problems.
+    pub lambda_max_dense: Option<f64>,
+    /// `√(2/λmax)`.
+    pub dt_eq56: f64,
+    /// Not computed in d dimensions (module docs).
+    pub dt_full_map: Option<f64>,
+    /// Bisection on real runs, if asked for.
+    pub dt_empirical: Option<f64>,
+}
+
+/// `λmax(M⁻¹K)` of a view by Lanczos to a relative residual of `1e-10`.
+pub fn lambda_max<const D: usize>(view: &ViewNd<'_, D>) -> f64 {
+    let n = view.n_nodes() * D;
+    let start: Vec<f64> = (0..n)
+        .map(|i| ((i * 7919 + 13) % 101) as f64 / 101.0 - 0.5)
+        .collect();
+    let r = lanczos(view, &start, 1e-10, 300.min(n.max(1)));
+    r.lambda
+}
+
+/// The table for the committed state of `solver`; `empirical` = `Some((A, steps))` runs
+/// the bisection.
+pub fn critical_table<const D: usize>(
+    solver: &SolverNd<D>,
+    empirical: Option<(f64, usize)>,
+) -> CriticalTable
+where
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+{
+    let view = solver.view();
+    let c_p = (0..view.n_particles())
+        .map(|p| view.p_wave_speed(p))
+        .fold(0.0, f64::max);
+    let lambda = lambda_max(&view);
+    let dense = (view.n_nodes() * D <= DENSE_LIMIT)
+        .then(|| dense_lambda_max(&view))
+        .flatten();
+    CriticalTable {
+        cell_size: view.grid.h.to_vec(),
+        c_p,
+        dt_sound: view.grid.h_min() / c_p,
+        lambda_max_nodal: lambda,
+        lambda_max_dense: dense,
+        dt_eq56: (2.0 / lambda).sqrt(),
+        dt_full_map: None,
+        dt_empirical: empirical.map(|(a, steps)| {
+            let guess = (2.0 / lambda).sqrt();
+            empirical_critical(solver, a, steps, 0.5 * guess, 2.0 * guess, 14)
+        }),
+    }
+}
+
+/// Whether a run of `steps` fixed steps `dt` from the perturbed state blows up
+/// (module docs).
+pub fn blows_up<const D: usize>(
+    template: &SolverNd<D>,
+    amplitude: f64,
+    steps: usize,
+    dt: f64,
+) -> bool
+where
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+{
+    let mut s = template.clone();
+    let view = s.view();
+    let l0 = view.grid.length(0);
+    let mut seed: u64 = 0x9E37_79B9_7F4A_7C15;
+    let mut noise = move || {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+    };
+    let n = view.n_particles();
+    let mut v = Vec::with_capacity(n);
+    let mut sigma = Vec::with_capacity(n);
+    for p in 0..n {
+        let c = view.p_wave_speed(p);
+        let mut vp = Vector::<D>::zeros();
+        vp[0] = amplitude * c * (2.0 * std::f64::consts::PI * view.x[p][0] / l0).sin();
+        for a in 0..D {
+            vp[a] += 1e-6 * amplitude * c * noise();
+        }
+        v.push(vp);
+        let scale = 1e-6 * amplitude * (view.lame_lambda[p] + 2.0 * view.lame_mu[p]);
+        sigma.push(Tensor::<D>::from_fn(|_, _| scale * noise()));
+    }
+    for t in sigma.iter_mut() {
+        *t = (*t + t.transpose()) * 0.5;
+    }
+    if s.set_velocity_and_stress(&v, &sigma).is_err() {
+        return true;
+    }
+    let e0 = s.total_energy();
+    for _ in 0..steps {
+        if s.try_step(dt).and_then(|_| s.accept()).is_err() {
+            return true;
+        }
+        let e = s.total_energy();
+        if !e.is_finite() || e > 10.0 * e0 {
+            return true;
+        }
+    }
+    false
+}
+
+/// Bisection of the blow-up step between `lo` (assumed stable) and `hi` (assumed
+/// unstable; both are checked and widened if not) in `iterations` halvings; returns the
+/// largest stable step found.
+pub fn empirical_critical<const D: usize>(
+    template: &SolverNd<D>,
+    amplitude: f64,
+    steps: usize,
+    mut lo: f64,
+    mut hi: f64,
+    iterations: usize,
+) -> f64
+where
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+{
+    for _ in 0..8 {
+        if blows_up(template, amplitude, steps, hi) {
+            break;
+        }
+        lo = hi;
+        hi *= 2.0;
+    }
+    for _ in 0..8 {
+        if !blows_up(template, amplitude, steps, lo) {
+            break;
+        }
+        hi = lo;
+        lo *= 0.5;
+    }
+    for _ in 0..iterations {
+        let mid = 0.5 * (lo + hi);
+        if blows_up(template, amplitude, steps, mid) {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    lo
+}

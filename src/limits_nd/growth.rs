@@ -1,0 +1,136 @@
+//! [`GrowthNd`]: the growth monitor in d dimensions.
+//!
+//! Particles that move make the method unstable somewhat below the frozen-particle limit
+//! (slowly growing high-wavenumber modes). This monitor watches the mechanical energy
+//!
+//! ```text
+//! E = Σ_p ½ m_p |v_p|² + Σ_p ½ V_p σ_p : C_p⁻¹ : σ_p − Σ_p m_p g·x_p
+//! ```
+//!
+//! (kinetic, elastic with the view's tangent moduli, gravitational), which the USL step
+//! does not increase in a stable run beyond a small oscillation (the kinetic and elastic
+//! parts are measured half a step apart). A trial is rejected with cause `growth`
+//!
+//! * when `E` rose within the step by more than half the kinetic plus elastic energy
+//!   before it (a fast blow-up: a smaller step cures it), or
+//! * when `E` rose, against its value `window` accepted steps earlier, by more than `tol`
+//!   times the kinetic plus elastic energy then (a slow instability). The history is then
+//!   cleared, so the retry is judged on the step alone: one rejection per detection.
+//!
+//! On a growth rejection the controller lowers every limit's safety factor by
+//! `ControllerConfig::growth.safety_factor` for the rest of the run.
+
+use crate::dimension::{Dim, Dimension};
+use crate::limit::{Judgement, LimitError, Metrics, RejectCause, StepLimit, Verdict};
+use crate::nd::{Tensor, Vector, ViewNd};
+use std::collections::VecDeque;
+
+/// Name in logs: `"growth"`.
+pub const GROWTH: &str = "growth";
+
+/// The d-dimensional growth monitor (module docs).
+#[derive(Clone, Debug)]
+pub struct GrowthNd<const D: usize> {
+    gravity: Vector<D>,
+    window: usize,
+    tol: f64,
+    /// `(E, K + U)` of the last `window + 1` accepted states.
+    history: VecDeque<(f64, f64)>,
+}
+
+impl<const D: usize> GrowthNd<D> {
+    /// A monitor for a run under `gravity`, over `window` accepted steps with relative
+    /// tolerance `tol`.
+    pub fn new(gravity: Vector<D>, window: usize, tol: f64) -> Self {
+        Self {
+            gravity,
+            window: window.max(1),
+            tol,
+            history: VecDeque::new(),
+        }
+    }
+
+    /// `(E, K + U)` of a view (module docs).
+    pub fn energies(&self, view: &ViewNd<'_, D>) -> (f64, f64) {
+        let mut ku = 0.0;
+        let mut pot = 0.0;
+        for p in 0..view.n_particles() {
+            ku += 0.5 * view.mass[p] * view.v[p].norm_squared();
+            let (l, m) = (view.lame_lambda[p], view.lame_mu[p]);
+            let s: &Tensor<D> = &view.sigma[p];
+            if m > 0.0 {
+                let eps = (s - Tensor::<D>::identity()
+                    * (l * s.trace() / (2.0 * m + D as f64 * l)))
+                    / (2.0 * m);
+                ku += 0.5 * crate::nd::det(&view.f[p]) * view.volume0[p] * s.dot(&eps);
+            } else if l > 0.0 {
+                let pr = s.trace() / D as f64;
+                ku += 0.5 * crate::nd::det(&view.f[p]) * view.volume0[p] * D as f64 * pr * pr
+                    / (D as f64 * l);
+            }
+            pot -= view.mass[p] * self.gravity.dot(&view.x[p]);
+        }
+        (ku + pot, ku)
+    }
+}
+
+impl<const D: usize> StepLimit<D> for GrowthNd<D>
+where
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+{
+    fn name(&self) -> &str {
+        GROWTH
+    }
+
+    fn propose(&mut self, state: &ViewNd<'_, D>) -> Result<crate::limit::Proposal, LimitError> {
+        if self.history.is_empty() {
+            let e = self.energies(state);
+            self.history.push_back(e);
+        }
+        Ok(crate::limit::Proposal::no_opinion())
+    }
+
+    fn judge(
+        &mut self,
+        before: &ViewNd<'_, D>,
+        after: &ViewNd<'_, D>,
+        _dt: f64,
+    ) -> Result<Judgement, LimitError> {
+        let (e_after, _) = self.energies(after);
+        let (e_before, ku_before) = match self.history.back() {
+            Some(&b) => b,
+            None => self.energies(before),
+        };
+        let (e_old, ku_old) = self
+            .history
+            .front()
+            .copied()
+            .unwrap_or((e_before, ku_before));
+        let mut metrics = Metrics::new();
+        metrics.insert("energy".into(), e_after);
+        let jump = e_after - e_before > 0.5 * ku_before.max(f64::MIN_POSITIVE);
+        let slow = self.history.len() > self.window
+            && e_after - e_old > self.tol * ku_old.max(f64::MIN_POSITIVE);
+        let verdict = if !e_after.is_finite() || jump || slow {
+            if slow {
+                self.history.clear();
+                self.history.push_back((e_before, ku_before));
+            }
+            Verdict::Reject {
+                cause: RejectCause::Growth,
+                suggested_dt: None,
+            }
+        } else {
+            Verdict::Accept
+        };
+        Ok(Judgement { verdict, metrics })
+    }
+
+    fn accepted(&mut self, _before: &ViewNd<'_, D>, after: &ViewNd<'_, D>, _dt: f64) {
+        let e = self.energies(after);
+        self.history.push_back(e);
+        while self.history.len() > self.window + 1 {
+            self.history.pop_front();
+        }
+    }
+}

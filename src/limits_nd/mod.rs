@@ -1,0 +1,81 @@
+//! The time-step limits in two and three dimensions, and the controller that combines them.
+//!
+//! * [`SoundSpeedNd`] — `α · min_p min_a h_a/(c_p + |v_a|)` (eq 49 generalised);
+//! * [`StabilityNd`] — `safety · √(2/λmax(M⁻¹K))` (eq 56 generalised, [`stiffness`]),
+//!   `λmax` refreshed by Lanczos only when particles have moved or moduli changed enough;
+//! * [`GrowthNd`] — rejects a step whose mechanical energy grows and lowers the safety;
+//! * [`critical`] — the verification table of a d-dimensional layout (sound-speed step,
+//!   dense eq 56, empirical bisection on real runs).
+//!
+//! [`standard_limits`] builds the controller's list from a [`ControllerConfig`]:
+//! `sound_speed.alpha` → [`SoundSpeedNd`], `stability.safety` → [`StabilityNd`],
+//! `growth.enabled`/`growth.window` → [`GrowthNd`] (over `4 · window` steps, tolerance 10 %). The temporal-error limit of eqs 20–30
+//! is 1D only so far: in 2D/3D the step is set by stability, which is where the gain lies
+//! for explicit MPM (the temporal error of a stable step is far below the spatial one).
+//!
+//! ```
+//! use mpm_dt::controller::{Controller, ControllerConfig};
+//! use mpm_dt::limits_nd::standard_limits;
+//! use mpm_dt::nd::{GridNd, MaterialNd, ParticlesNd, ShapeNd, SolverNd, Vector};
+//! use mpm_dt::{Boundary, Stepper};
+//!
+//! let grid = GridNd::<2>::new([Boundary::Periodic; 2], [8, 8], [1.0, 1.0]);
+//! let material = MaterialNd::LinearElastic { youngs_modulus: 1.0, poisson_ratio: 0.3 };
+//! let mut particles = ParticlesNd::uniform(&grid, [2, 2], 1.0, material);
+//! for p in 0..particles.len() {
+//!     particles.v[p][0] = 1e-3 * (2.0 * std::f64::consts::PI * particles.x[p][0]).sin();
+//! }
+//! let mut solver = SolverNd::new(grid, ShapeNd::Gimp, particles, Vector::<2>::zeros())?;
+//! let config = ControllerConfig::default();
+//! let limits = standard_limits::<2>(&config, Vector::<2>::zeros());
+//! let mut controller = Controller::<2>::new(config, limits)?;
+//! controller.run_until(&mut solver, 0.5, &mut |_| {})?;
+//! assert!((solver.time() - 0.5).abs() < 1e-12);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+pub mod critical;
+mod growth;
+mod sound_speed;
+mod stability;
+pub mod stiffness;
+
+pub use growth::{GrowthNd, GROWTH};
+pub use sound_speed::{SoundSpeedNd, SOUND_SPEED};
+pub use stability::{StabilityNd, StabilityNdConfig, STABILITY};
+
+use crate::controller::ControllerConfig;
+use crate::dimension::{Dim, Dimension};
+use crate::limit::StepLimit;
+use crate::nd::{Vector, ViewNd};
+
+/// The standard limits of a d-dimensional run, as `config` enables and sets them
+/// (module docs): sound speed, stability, growth. `gravity` is the run's body force (the
+/// growth monitor counts its potential energy).
+pub fn standard_limits<const D: usize>(
+    config: &ControllerConfig,
+    gravity: Vector<D>,
+) -> Vec<Box<dyn StepLimit<D>>>
+where
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+{
+    let mut limits: Vec<Box<dyn StepLimit<D>>> = Vec::new();
+    if let Some(s) = &config.sound_speed {
+        limits.push(Box::new(SoundSpeedNd { alpha: s.alpha }));
+    }
+    if let Some(s) = &config.stability {
+        limits.push(Box::new(StabilityNd::<D>::new(StabilityNdConfig {
+            safety: s.safety,
+            ..StabilityNdConfig::default()
+        })));
+    }
+    if config.growth.enabled {
+        // Over four of the configured windows, 10 % of the kinetic plus elastic energy.
+        limits.push(Box::new(GrowthNd::new(
+            gravity,
+            4 * config.growth.window as usize,
+            0.1,
+        )));
+    }
+    limits
+}

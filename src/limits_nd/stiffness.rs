@@ -1,0 +1,218 @@
+//! The eq 56 operator in d dimensions and its largest eigenvalue.
+//!
+//! Eq 56 says the stress part of the USL step amplifies a perturbation by `I − dt² M⁻¹K`
+//! (in 1D `I − E dt²/h² D*F`). In d dimensions (DESIGN "Stability in d dimensions") `K` is
+//! the nodal stiffness on the `d·n_nodes` nodal velocity space,
+//!
+//! ```text
+//! K = Σ_p V_p B_pᵀ C_p B_p,   (B_p u) = sym(Σ_i u_i ⊗ ∇S_ip),   C_p ε = λ_t tr(ε) I + 2 μ_t ε,
+//! ```
+//!
+//! with `V_p = det(F_p) V⁰_p` and `M` the lumped nodal masses (active nodes only). `M⁻¹K`
+//! is similar to the symmetric positive semi-definite `A = M^{-1/2} K M^{-1/2}`, so its
+//! eigenvalues are real and `ρ(I − dt² M⁻¹K) ≤ 1 ⇔ dt² λmax ≤ 2`:
+//! `dt_eq56 = √(2/λmax)`. [`apply`] computes `A u` matrix-free in one pass over the
+//! particles' weights (the cost of about one particle → grid pass); [`lanczos`] finds
+//! `λmax(A)` from a few such products; [`dense`] assembles `A` for small problems.
+
+use crate::nd::{Tensor, Vector, ViewNd};
+use faer::Mat;
+
+/// `y = A u` with `A = M^{-1/2} K M^{-1/2}` (module docs); `u`, `y` hold `D` components per
+/// node, node-major. Inactive nodes read and write zero.
+pub fn apply<const D: usize>(view: &ViewNd<'_, D>, u: &[f64], y: &mut [f64]) {
+    let nn = view.n_nodes();
+    debug_assert!(u.len() == nn * D && y.len() == nn * D);
+    y.fill(0.0);
+    let inv_sqrt_m = |i: usize| {
+        if view.node_active[i] {
+            1.0 / view.node_mass[i].sqrt()
+        } else {
+            0.0
+        }
+    };
+    let w = &view.weights;
+    for p in 0..view.n_particles() {
+        let nodes = w.nodes_of(p);
+        let grads = w.grad_of(p);
+        let mut l = Tensor::<D>::zeros();
+        for (&i, g) in nodes.iter().zip(grads) {
+            let i = i as usize;
+            let s = inv_sqrt_m(i);
+            if s == 0.0 {
+                continue;
+            }
+            let ui = Vector::<D>::from_fn(|a, _| u[i * D + a] * s);
+            l += ui * g.transpose();
+        }
+        let eps = (l + l.transpose()) * 0.5;
+        let vol = crate::nd::det(&view.f[p]) * view.volume0[p];
+        let stress = (Tensor::<D>::identity() * (view.lame_lambda[p] * eps.trace())
+            + eps * (2.0 * view.lame_mu[p]))
+            * vol;
+        for (&i, g) in nodes.iter().zip(grads) {
+            let i = i as usize;
+            let s = inv_sqrt_m(i);
+            if s == 0.0 {
+                continue;
+            }
+            let f = stress * g;
+            for a in 0..D {
+                y[i * D + a] += f[a] * s;
+            }
+        }
+    }
+}
+
+/// The dense `A` (module docs), `d·n_nodes` square, for small problems and tests.
+pub fn dense<const D: usize>(view: &ViewNd<'_, D>) -> Mat<f64> {
+    let n = view.n_nodes() * D;
+    let mut a = Mat::<f64>::zeros(n, n);
+    let mut e = vec![0.0; n];
+    let mut col = vec![0.0; n];
+    for j in 0..n {
+        e.fill(0.0);
+        e[j] = 1.0;
+        apply(view, &e, &mut col);
+        for (i, &c) in col.iter().enumerate() {
+            a[(i, j)] = c;
+        }
+    }
+    a
+}
+
+/// The largest eigenvalue of the dense `A` (faer's symmetric eigen solver).
+pub fn dense_lambda_max<const D: usize>(view: &ViewNd<'_, D>) -> Option<f64> {
+    let a = dense(view);
+    let eig = a.self_adjoint_eigenvalues(faer::Side::Lower).ok()?;
+    eig.into_iter()
+        .fold(None, |m: Option<f64>, v| Some(m.map_or(v, |m| m.max(v))))
+}
+
+/// Result of a Lanczos run.
+#[derive(Clone, Debug)]
+pub struct LanczosResult {
+    /// The largest Ritz value (a lower bound on `λmax(A)`).
+    pub lambda: f64,
+    /// Its residual bound `β_k |y_k|` (the distance to an eigenvalue is at most this).
+    pub residual: f64,
+    /// The Ritz vector (unit 2-norm), a warm start for the next run.
+    pub vector: Vec<f64>,
+    /// Products with `A` used.
+    pub applications: usize,
+}
+
+/// Lanczos with full reorthogonalisation for `λmax(A)`, from `start` (any non-zero vector;
+/// a previous Ritz vector makes it fast). Stops when the residual bound of the largest Ritz
+/// value is below `tol · λ`, or after `max_iter` products.
+pub fn lanczos<const D: usize>(
+    view: &ViewNd<'_, D>,
+    start: &[f64],
+    tol: f64,
+    max_iter: usize,
+) -> LanczosResult {
+    let n = start.len();
+    let mut basis: Vec<Vec<f64>> = Vec::new();
+    let mut alpha: Vec<f64> = Vec::new();
+    let mut beta: Vec<f64> = Vec::new();
+    let mut q: Vec<f64> = start.to_vec();
+    // Zero inactive nodes' components; the operator ignores them.
+    for i in 0..view.n_nodes() {
+        if !view.node_active[i] {
+            for a in 0..D {
+                q[i * D + a] = 0.0;
+            }
+        }
+    }
+    let norm = dot(&q, &q).sqrt();
+    if !(norm > 0.0 && norm.is_finite()) {
+        return LanczosResult {
+            lambda: 0.0,
+            residual: 0.0,
+            vector: q,
+            applications: 0,
+        };
+    }
+    q.iter_mut().for_each(|v| *v /= norm);
+    let mut w = vec![0.0; n];
+    let mut best = (0.0, f64::INFINITY, q.clone());
+    for k in 0..max_iter.max(1) {
+        apply(view, &q, &mut w);
+        let a = dot(&q, &w);
+        basis.push(q.clone());
+        alpha.push(a);
+        // Full reorthogonalisation (twice is enough).
+        for _ in 0..2 {
+            for b in &basis {
+                let c = dot(b, &w);
+                w.iter_mut().zip(b).for_each(|(x, y)| *x -= c * y);
+            }
+        }
+        let bnorm = dot(&w, &w).sqrt();
+        let (theta, y) = tridiagonal_top(&alpha, &beta);
+        let residual = bnorm * y.last().copied().unwrap_or(0.0).abs();
+        let vector = ritz(&basis, &y);
+        best = (theta, residual, vector);
+        if residual <= tol * theta.abs() || bnorm <= 1e-14 * theta.abs() || k + 1 == max_iter {
+            break;
+        }
+        beta.push(bnorm);
+        q = w.iter().map(|v| v / bnorm).collect();
+    }
+    LanczosResult {
+        lambda: best.0,
+        residual: best.1,
+        vector: best.2,
+        applications: alpha.len(),
+    }
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+/// Largest eigenpair of the symmetric tridiagonal matrix (`alpha` diagonal, `beta`
+/// off-diagonal).
+fn tridiagonal_top(alpha: &[f64], beta: &[f64]) -> (f64, Vec<f64>) {
+    let k = alpha.len();
+    let t = nalgebra::DMatrix::<f64>::from_fn(k, k, |i, j| {
+        if i == j {
+            alpha[i]
+        } else if i + 1 == j {
+            beta[i]
+        } else if j + 1 == i {
+            beta[j]
+        } else {
+            0.0
+        }
+    });
+    let eig = t.symmetric_eigen();
+    let (imax, _) =
+        eig.eigenvalues
+            .iter()
+            .enumerate()
+            .fold((0, f64::NEG_INFINITY), |(bi, bv), (i, &v)| {
+                if v > bv {
+                    (i, v)
+                } else {
+                    (bi, bv)
+                }
+            });
+    (
+        eig.eigenvalues[imax],
+        eig.eigenvectors.column(imax).iter().copied().collect(),
+    )
+}
+
+fn ritz(basis: &[Vec<f64>], y: &[f64]) -> Vec<f64> {
+    let n = basis[0].len();
+    let mut v = vec![0.0; n];
+    for (b, &c) in basis.iter().zip(y) {
+        v.iter_mut().zip(b).for_each(|(x, z)| *x += c * z);
+    }
+    let norm = dot(&v, &v).sqrt();
+    if norm > 0.0 {
+        v.iter_mut().for_each(|x| *x /= norm);
+    }
+    v
+}

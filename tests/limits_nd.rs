@@ -1,0 +1,192 @@
+//! Capability: the d-dimensional eq 56 operator — the matrix-free Lanczos `λmax(M⁻¹K)`
+//! equals the dense symmetric eigenvalue, uniform GIMP and linear layouts give
+//! `dt_eq56 = h_min/(√2 c_p)`, and the controller runs 2D and 3D solvers without blow-up.
+
+use mpm_dt::controller::{Controller, ControllerConfig};
+use mpm_dt::limits_nd::critical::{critical_table, lambda_max};
+use mpm_dt::limits_nd::standard_limits;
+use mpm_dt::nd::{GridNd, MaterialNd, ParticlesNd, ShapeNd, SolverNd, Vector};
+use mpm_dt::{Boundary, Dim, Dimension, Stepper, ViewNd};
+
+fn material(nu: f64) -> MaterialNd {
+    MaterialNd::LinearElastic {
+        youngs_modulus: 1.0,
+        poisson_ratio: nu,
+    }
+}
+
+/// A seeded jitter of up to `amp` of a particle spacing per axis.
+fn jitter<const D: usize>(particles: &mut ParticlesNd<D>, amp: f64) {
+    let mut s: u64 = 12345;
+    for p in 0..particles.len() {
+        for a in 0..D {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            let u = (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+            particles.x[p][a] += amp * particles.domain[p][a] * u;
+        }
+    }
+}
+
+fn solver<const D: usize>(
+    cells: [usize; D],
+    lengths: [f64; D],
+    shape: ShapeNd,
+    nu: f64,
+    jittered: bool,
+    inclusion: bool,
+) -> SolverNd<D> {
+    let grid = GridNd::<D>::new([Boundary::Periodic; D], cells, lengths);
+    let mut particles = ParticlesNd::uniform(&grid, [2; D], 1.0, material(nu));
+    if jittered {
+        jitter(&mut particles, 0.4);
+    }
+    if inclusion {
+        // The particles in the first cell of every axis are 10× stiffer.
+        for p in 0..particles.len() {
+            if (0..D).all(|a| particles.x[p][a] < grid.h[a]) {
+                particles.material[p] = MaterialNd::LinearElastic {
+                    youngs_modulus: 10.0,
+                    poisson_ratio: nu,
+                };
+            }
+        }
+    }
+    SolverNd::new(grid, shape, particles, Vector::<D>::zeros()).unwrap()
+}
+
+fn check_dense<const D: usize>(label: &str, s: &SolverNd<D>)
+where
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+{
+    let t = critical_table(s, None);
+    let dense = t
+        .lambda_max_dense
+        .expect("small enough for the dense check");
+    let rel = (t.lambda_max_nodal - dense).abs() / dense;
+    eprintln!(
+        "{label}: λmax {:.9e} (dense {:.9e}), dt_eq56 = {:.6} h_min/c_p",
+        t.lambda_max_nodal,
+        dense,
+        t.dt_eq56 / t.dt_sound
+    );
+    assert!(
+        rel < 1e-6,
+        "{label}: Lanczos {} vs dense {dense}",
+        t.lambda_max_nodal
+    );
+}
+
+#[test]
+fn lanczos_matches_the_dense_eigenvalue_in_2d() {
+    check_dense(
+        "2D uniform GIMP",
+        &solver([6, 5], [1.0, 1.0], ShapeNd::Gimp, 0.0, false, false),
+    );
+    check_dense(
+        "2D jittered GIMP ν=0.3",
+        &solver([6, 6], [1.0, 1.0], ShapeNd::Gimp, 0.3, true, false),
+    );
+    check_dense(
+        "2D linear",
+        &solver([6, 6], [1.0, 1.0], ShapeNd::Linear, 0.3, true, false),
+    );
+    check_dense(
+        "2D B-spline",
+        &solver([6, 6], [1.0, 1.0], ShapeNd::BSpline2, 0.3, true, false),
+    );
+    check_dense(
+        "2D inclusion",
+        &solver([6, 6], [1.0, 1.0], ShapeNd::Gimp, 0.3, false, true),
+    );
+    check_dense(
+        "2D anisotropic",
+        &solver([6, 4], [1.0, 2.0], ShapeNd::Gimp, 0.3, false, false),
+    );
+}
+
+#[test]
+fn lanczos_matches_the_dense_eigenvalue_in_3d() {
+    check_dense(
+        "3D uniform GIMP",
+        &solver([4, 4, 3], [1.0; 3], ShapeNd::Gimp, 0.3, false, false),
+    );
+    check_dense(
+        "3D jittered B-spline",
+        &solver([4, 4, 4], [1.0; 3], ShapeNd::BSpline2, 0.3, true, false),
+    );
+    check_dense(
+        "3D linear",
+        &solver([4, 4, 4], [1.0; 3], ShapeNd::Linear, 0.0, true, false),
+    );
+}
+
+#[test]
+fn uniform_gimp_and_linear_layouts_give_h_over_root_two_c() {
+    for (shape, nu, cells, lengths) in [
+        (ShapeNd::Gimp, 0.0, [8, 8], [1.0, 1.0]),
+        (ShapeNd::Gimp, 0.3, [8, 8], [1.0, 1.0]),
+        (ShapeNd::Linear, 0.3, [8, 8], [1.0, 1.0]),
+        (ShapeNd::Gimp, 0.3, [8, 4], [1.0, 1.0]),
+    ] {
+        let s = solver(cells, lengths, shape, nu, false, false);
+        let view = s.view();
+        let dt = (2.0 / lambda_max(&view)).sqrt();
+        let c_p = material(nu).p_modulus().sqrt();
+        let ratio = dt * c_p / view.grid.h_min();
+        eprintln!("{shape:?} ν={nu} cells {cells:?}: dt_eq56 = {ratio:.6} h_min/c_p");
+        assert!(
+            (ratio - std::f64::consts::FRAC_1_SQRT_2).abs() < 1e-6,
+            "{shape:?} ν={nu} {cells:?}: {ratio}"
+        );
+    }
+}
+
+fn controlled_run<const D: usize>(mut s: SolverNd<D>, t_end: f64) -> (u64, f64)
+where
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+{
+    let n = s.n_particles();
+    let view = s.view();
+    let c = view.p_wave_speed(0);
+    let v: Vec<Vector<D>> = (0..n)
+        .map(|p| {
+            let mut v = Vector::<D>::zeros();
+            v[0] = 1e-2 * c * (2.0 * std::f64::consts::PI * view.x[p][0]).sin();
+            v
+        })
+        .collect();
+    let sigma = vec![mpm_dt::nd::Tensor::<D>::zeros(); n];
+    s.set_velocity_and_stress(&v, &sigma).unwrap();
+    let e0 = s.total_energy();
+    let config = ControllerConfig::default();
+    let limits = standard_limits::<D>(&config, Vector::<D>::zeros());
+    let mut controller = Controller::<D>::new(config, limits).unwrap();
+    controller.run_until(&mut s, t_end, &mut |_| {}).unwrap();
+    let e = s.total_energy();
+    assert!(e.is_finite() && e <= 1.01 * e0, "energy {e} from {e0}");
+    let stats = controller.stats();
+    (stats.accepted, stats.dt_mean().unwrap())
+}
+
+#[test]
+fn the_controller_runs_2d_and_3d_solvers_without_blow_up() {
+    let s2 = solver([16, 16], [1.0, 1.0], ShapeNd::Gimp, 0.3, true, false);
+    let h = s2.grid().h_min();
+    let c = material(0.3).p_modulus().sqrt();
+    let (steps, mean) = controlled_run(s2, 2.0);
+    eprintln!(
+        "2D jittered GIMP: {steps} steps, mean dt {:.4} h/c_p",
+        mean * c / h
+    );
+    assert!(mean * c / h > 0.5);
+    let s3 = solver([6, 6, 6], [1.0; 3], ShapeNd::BSpline2, 0.3, false, false);
+    let h = s3.grid().h_min();
+    let (steps, mean) = controlled_run(s3, 1.0);
+    eprintln!(
+        "3D uniform B-spline: {steps} steps, mean dt {:.4} h/c_p",
+        mean * c / h
+    );
+    assert!(mean * c / h > 0.5);
+}
