@@ -1,0 +1,223 @@
+//! A foreign scheme under mpm-dt: a compact 2D MLS-MPM / APIC solver ([`solver`]) written
+//! against the public `Stepper<2>` trait only, on taichi's `mpm88` scene with an elastic
+//! jelly in place of its fluid.
+//!
+//! ```text
+//! cargo run --release --example mls_mpm -- [--grid N] [--t-end T] [--fixed-dt DT] [--find-failure] [--fluid]
+//! ```
+//!
+//! The scene: a box `[0, 1]²` of `N×N` cells (default 128) with walls three cells thick,
+//! 8192 particles at seeded random positions in the square `[0.2, 0.6]²` moving at
+//! `(0, −1)`, gravity 9.8 downwards, a fixed-corotated jelly with E = 400, ν = 0.2, ρ = 1,
+//! particle volume `(h/2)²` — mpm88's setup, whose shipped step is `dt = 2·10⁻⁴`.
+//!
+//! * `--fixed-dt DT` runs the scene with a fixed step;
+//! * `--find-failure` bisects the fixed step at which the run blows up before `t_end`
+//!   (non-finite values, a particle through a wall, `det F ≤ 0`, or kinetic plus elastic
+//!   energy above 10× the energy the block has to give: its initial kinetic energy plus
+//!   its potential energy above the floor);
+//! * otherwise the run is driven by mpm-dt's controller.
+
+mod solver;
+
+use mpm_dt::Stepper;
+use nalgebra::Vector2;
+use rand::{Rng, SeedableRng};
+use solver::{MlsMpm, Model};
+use std::process::ExitCode;
+
+/// mpm88's shipped fixed step.
+const MPM88_DT: f64 = 2e-4;
+
+/// The scene's settings.
+#[derive(Clone, Copy, Debug)]
+struct Scene {
+    n_grid: usize,
+    t_end: f64,
+    /// mpm88's own weakly compressible fluid instead of the jelly.
+    fluid: bool,
+}
+
+fn build(scene: Scene) -> MlsMpm {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(88);
+    // mpm88's particle count, whatever the grid (its `n_particles = 8192`).
+    let n = 8192;
+    let x: Vec<Vector2<f64>> = (0..n)
+        .map(|_| {
+            Vector2::new(
+                rng.random::<f64>() * 0.4 + 0.2,
+                rng.random::<f64>() * 0.4 + 0.2,
+            )
+        })
+        .collect();
+    let v = vec![Vector2::new(0.0, -1.0); n];
+    let model = if scene.fluid {
+        Model::Fluid {
+            bulk_modulus: 400.0,
+        }
+    } else {
+        Model::Jelly {
+            youngs_modulus: 400.0,
+            poisson_ratio: 0.2,
+        }
+    };
+    MlsMpm::new(scene.n_grid, model, 1.0, Vector2::new(0.0, -9.8), x, v)
+}
+
+/// How a fixed-step run ended.
+#[derive(Debug)]
+struct FixedRun {
+    steps: u64,
+    blew_up: Option<String>,
+    wall_s: f64,
+    energy: (f64, f64, f64),
+}
+
+/// Energy the block can give: kinetic plus potential above the floor (y = 0).
+fn energy_budget(s: &MlsMpm) -> f64 {
+    let (k, e, p) = s.energies();
+    // `p = −Σ m g·x = Σ m 9.8 y`, the potential energy above y = 0.
+    k + e + p
+}
+
+fn run_fixed(scene: Scene, dt: f64) -> FixedRun {
+    let mut s = build(scene);
+    let budget = energy_budget(&s);
+    let start = std::time::Instant::now();
+    let mut blew_up = None;
+    while s.time() < scene.t_end - 1e-12 {
+        let step = dt.min(scene.t_end - s.time());
+        if let Err(e) = s.try_step(step).and_then(|_| s.accept()) {
+            blew_up = Some(e.to_string());
+            break;
+        }
+        let view = s.view();
+        if let Some(p) = view.f.iter().position(|f| f.determinant() <= 0.0) {
+            blew_up = Some(format!("det F <= 0 at particle {p}, t = {}", s.time()));
+            break;
+        }
+        let (k, e, _) = s.energies();
+        if !(k + e).is_finite() || k + e > 10.0 * budget {
+            blew_up = Some(format!(
+                "energy {:.3e} > 10x budget at t = {}",
+                k + e,
+                s.time()
+            ));
+            break;
+        }
+    }
+    FixedRun {
+        steps: s.step_count(),
+        blew_up,
+        wall_s: start.elapsed().as_secs_f64(),
+        energy: s.energies(),
+    }
+}
+
+/// Bisection on the fixed step (in units of h/c_p) between a stable and an unstable run.
+fn find_failure(scene: Scene) -> (f64, f64) {
+    let s = build(scene);
+    let unit = s.grid().h[0] / s.p_wave_speed();
+    let (mut lo, mut hi) = (0.25, 4.0);
+    assert!(run_fixed(scene, hi * unit).blew_up.is_some() || hi > 3.9);
+    for _ in 0..12 {
+        let mid = 0.5 * (lo + hi);
+        let r = run_fixed(scene, mid * unit);
+        eprintln!(
+            "  dt = {:.4e} ({mid:.4} h/c_p): {}",
+            mid * unit,
+            r.blew_up.as_deref().unwrap_or("stable")
+        );
+        if r.blew_up.is_some() {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    (lo * unit, hi * unit)
+}
+
+fn main() -> ExitCode {
+    let mut scene = Scene {
+        n_grid: 128,
+        t_end: 0.5,
+        fluid: false,
+    };
+    let mut fixed = None;
+    let mut failure = false;
+    let mut args = std::env::args().skip(1);
+    while let Some(a) = args.next() {
+        let mut value = |name: &str| -> Result<f64, String> {
+            args.next()
+                .ok_or(format!("{name} needs a value"))?
+                .parse::<f64>()
+                .map_err(|e| format!("{name}: {e}"))
+        };
+        let parsed = match a.as_str() {
+            "--grid" => value("--grid").map(|v| scene.n_grid = v as usize),
+            "--t-end" => value("--t-end").map(|v| scene.t_end = v),
+            "--fixed-dt" => value("--fixed-dt").map(|v| fixed = Some(v)),
+            "--fluid" => {
+                scene.fluid = true;
+                Ok(())
+            }
+            "--find-failure" => {
+                failure = true;
+                Ok(())
+            }
+            "--help" | "-h" => {
+                println!("usage: mls_mpm [--grid N] [--t-end T] [--fixed-dt DT] [--find-failure] [--fluid]");
+                return ExitCode::SUCCESS;
+            }
+            other => Err(format!("unknown argument {other}")),
+        };
+        if let Err(e) = parsed {
+            eprintln!("error: {e}");
+            return ExitCode::from(2);
+        }
+    }
+    if scene.n_grid < 16 || scene.n_grid > 4096 || !(scene.t_end > 0.0) {
+        eprintln!("error: --grid must be in 16..=4096 and --t-end positive");
+        return ExitCode::from(2);
+    }
+    let s = build(scene);
+    let unit = s.grid().h[0] / s.p_wave_speed();
+    println!(
+        "MLS-MPM {}, {}x{} cells, {} particles, h/c_p = {:.4e} s, mpm88's dt = {:.1e} s = {:.3} h/c_p",
+        if scene.fluid { "fluid (mpm88)" } else { "jelly" },
+        scene.n_grid,
+        scene.n_grid,
+        8192,
+        unit,
+        MPM88_DT,
+        MPM88_DT / unit
+    );
+    if failure {
+        let (lo, hi) = find_failure(scene);
+        println!(
+            "failure step: stable at {:.4e} s ({:.3} h/c_p), blows up at {:.4e} s ({:.3} h/c_p); mpm88's dt is {:.3} of it",
+            lo,
+            lo / unit,
+            hi,
+            hi / unit,
+            MPM88_DT / hi
+        );
+        return ExitCode::SUCCESS;
+    }
+    let dt = fixed.unwrap_or(MPM88_DT);
+    let r = run_fixed(scene, dt);
+    println!(
+        "fixed dt = {dt:.3e} s: {} steps, {:.2} s wall, {}; energies (kinetic, elastic, potential) = {:.4e}, {:.4e}, {:.4e}",
+        r.steps,
+        r.wall_s,
+        r.blew_up.as_deref().unwrap_or("stable"),
+        r.energy.0,
+        r.energy.1,
+        r.energy.2
+    );
+    if r.blew_up.is_some() {
+        ExitCode::FAILURE
+    } else {
+        ExitCode::SUCCESS
+    }
+}
