@@ -16,10 +16,14 @@
 //!   (non-finite values, a particle through a wall, `det F ≤ 0`, or kinetic plus elastic
 //!   energy above 10× the energy the block has to give: its initial kinetic energy plus
 //!   its potential energy above the floor);
-//! * otherwise the run is driven by mpm-dt's controller.
+//! * every run also drives the scene with mpm-dt's controller (the standard 2D limits: sound
+//!   speed, eq 56 stability on the solver's own weights, growth; no tuning) and prints both.
 
 mod solver;
 
+use mpm_dt::controller::{Controller, ControllerConfig};
+use mpm_dt::limits_nd::standard_limits;
+use mpm_dt::nd::Vector;
 use mpm_dt::Stepper;
 use nalgebra::Vector2;
 use rand::{Rng, SeedableRng};
@@ -114,6 +118,65 @@ fn run_fixed(scene: Scene, dt: f64) -> FixedRun {
     }
 }
 
+/// How the controlled run ended.
+struct ControlledRun {
+    steps: u64,
+    rejected: u64,
+    dt_mean: f64,
+    dt_min: f64,
+    wall_s: f64,
+    error: Option<String>,
+}
+
+/// The scene under mpm-dt's standard 2D limits (sound speed, eq 56 stability, growth),
+/// with no tuning.
+fn run_controlled(scene: Scene) -> ControlledRun {
+    let mut s = build(scene);
+    let config = ControllerConfig::default();
+    let limits = standard_limits::<2>(&config, Vector::<2>::new(0.0, -9.8));
+    let start = std::time::Instant::now();
+    let mut controller = match Controller::<2>::new(config, limits) {
+        Ok(c) => c,
+        Err(e) => {
+            return ControlledRun {
+                steps: 0,
+                rejected: 0,
+                dt_mean: f64::NAN,
+                dt_min: f64::NAN,
+                wall_s: 0.0,
+                error: Some(e.to_string()),
+            }
+        }
+    };
+    let mut refreshes = (0.0, 0.0);
+    let error = controller
+        .run_until(&mut s, scene.t_end, &mut |d| {
+            for l in &d.limits {
+                if let (Some(&r), Some(&a)) = (
+                    l.metrics.get("refreshes"),
+                    l.metrics.get("lanczos_applications"),
+                ) {
+                    refreshes = (r, a);
+                }
+            }
+        })
+        .err()
+        .map(|e| e.to_string());
+    let stats = controller.stats();
+    eprintln!(
+        "  stability refreshes: {} (Lanczos products {})",
+        refreshes.0, refreshes.1
+    );
+    ControlledRun {
+        steps: stats.accepted,
+        rejected: stats.rejected,
+        dt_mean: stats.dt_mean().unwrap_or(f64::NAN),
+        dt_min: stats.dt_min.unwrap_or(f64::NAN),
+        wall_s: start.elapsed().as_secs_f64(),
+        error,
+    }
+}
+
 /// Bisection on the fixed step (in units of h/c_p) between a stable and an unstable run.
 fn find_failure(scene: Scene) -> (f64, f64) {
     let s = build(scene);
@@ -192,8 +255,8 @@ fn main() -> ExitCode {
         MPM88_DT,
         MPM88_DT / unit
     );
-    if failure {
-        let (lo, hi) = find_failure(scene);
+    let failure_step = failure.then(|| find_failure(scene));
+    if let Some((lo, hi)) = failure_step {
         println!(
             "failure step: stable at {:.4e} s ({:.3} h/c_p), blows up at {:.4e} s ({:.3} h/c_p); mpm88's dt is {:.3} of it",
             lo,
@@ -202,12 +265,12 @@ fn main() -> ExitCode {
             hi / unit,
             MPM88_DT / hi
         );
-        return ExitCode::SUCCESS;
     }
     let dt = fixed.unwrap_or(MPM88_DT);
     let r = run_fixed(scene, dt);
     println!(
-        "fixed dt = {dt:.3e} s: {} steps, {:.2} s wall, {}; energies (kinetic, elastic, potential) = {:.4e}, {:.4e}, {:.4e}",
+        "fixed dt = {dt:.3e} s ({:.3} h/c_p): {} steps, {:.2} s wall, {}; energies (kinetic, elastic, potential) = {:.4e}, {:.4e}, {:.4e}",
+        dt / unit,
         r.steps,
         r.wall_s,
         r.blew_up.as_deref().unwrap_or("stable"),
@@ -215,9 +278,26 @@ fn main() -> ExitCode {
         r.energy.1,
         r.energy.2
     );
-    if r.blew_up.is_some() {
-        ExitCode::FAILURE
-    } else {
-        ExitCode::SUCCESS
+    let c = run_controlled(scene);
+    println!(
+        "mpm-dt controller: {} steps ({} rejected), mean dt {:.4e} s ({:.3} h/c_p), min dt {:.4e} s, {:.2} s wall, {}",
+        c.steps,
+        c.rejected,
+        c.dt_mean,
+        c.dt_mean / unit,
+        c.dt_min,
+        c.wall_s,
+        c.error.as_deref().unwrap_or("reached t_end")
+    );
+    if let Some((_, hi)) = failure_step {
+        println!(
+            "controller mean dt / failure step = {:.3}; steps against the fixed dt: {:.2}x fewer",
+            c.dt_mean / hi,
+            r.steps as f64 / c.steps.max(1) as f64
+        );
     }
+    if c.error.is_some() {
+        return ExitCode::FAILURE;
+    }
+    ExitCode::SUCCESS
 }

@@ -9,6 +9,8 @@
 //!
 //! * some particle has moved more than `refresh_cells` of a cell on some axis since the
 //!   last refresh, or
+//! * the smallest active nodal mass fell by more than `refresh_mass` (relative): nearly
+//!   empty nodes set `λmax` on small-mass layouts, or
 //! * some particle's `V (λ_t + 2μ_t)` has changed by more than `refresh_modulus`
 //!   (relative), or
 //! * `max_age` proposals have passed, or the node count changed;
@@ -44,13 +46,16 @@ pub const STABILITY: &str = "stability";
 pub struct StabilityNdConfig {
     /// Fraction of `dt_eq56` proposed (default 0.9, as in 1D).
     pub safety: f64,
-    /// Refresh when a particle moved this many cells on some axis (default 0.05).
+    /// Refresh when a particle moved this many cells on some axis (default 0.5).
     pub refresh_cells: f64,
+    /// Refresh when the smallest active nodal mass fell by this much, relative (default 0.1).
+    pub refresh_mass: f64,
     /// Refresh when some `V(λ_t + 2μ_t)` changed by this much, relative (default 0.02).
     pub refresh_modulus: f64,
-    /// Refresh at least every this many proposals (default 100).
+    /// Refresh at least every this many proposals (default 50).
     pub max_age: u32,
-    /// Lanczos relative residual tolerance (default 1e-3).
+    /// Lanczos relative residual tolerance (default 1e-2; the residual is added to the
+    /// Ritz value, so the bound is conservative by at most this).
     pub tol: f64,
     /// Lanczos products per refresh at most (default 40).
     pub max_iter: usize,
@@ -62,10 +67,11 @@ impl Default for StabilityNdConfig {
     fn default() -> Self {
         Self {
             safety: 0.9,
-            refresh_cells: 0.05,
+            refresh_cells: 0.5,
+            refresh_mass: 0.1,
             refresh_modulus: 0.02,
-            max_age: 100,
-            tol: 1e-3,
+            max_age: 50,
+            tol: 1e-2,
             max_iter: 40,
             margin: 1.0,
         }
@@ -81,8 +87,11 @@ pub struct StabilityNd<const D: usize> {
     ritz: Vec<f64>,
     x_ref: Vec<Vector<D>>,
     stiff_ref: Vec<f64>,
+    /// Smallest active nodal mass and active node count at the refresh.
+    mass_ref: (f64, usize),
     age: u32,
     refreshes: u64,
+    applications: u64,
 }
 
 impl<const D: usize> StabilityNd<D> {
@@ -95,8 +104,10 @@ impl<const D: usize> StabilityNd<D> {
             ritz: Vec::new(),
             x_ref: Vec::new(),
             stiff_ref: Vec::new(),
+            mass_ref: (0.0, 0),
             age: 0,
             refreshes: 0,
+            applications: 0,
         }
     }
 
@@ -114,12 +125,25 @@ impl<const D: usize> StabilityNd<D> {
         crate::nd::det(&view.f[p]) * view.volume0[p] * (view.lame_lambda[p] + 2.0 * view.lame_mu[p])
     }
 
+    /// Smallest active nodal mass and the number of active nodes.
+    fn node_mass_summary(view: &ViewNd<'_, D>) -> (f64, usize) {
+        view.node_mass
+            .iter()
+            .zip(view.node_active)
+            .filter(|(_, &a)| a)
+            .fold((f64::INFINITY, 0), |(m, n), (&mi, _)| (m.min(mi), n + 1))
+    }
+
     fn stale(&self, view: &ViewNd<'_, D>) -> bool {
         if self.lambda.is_none()
             || self.age >= self.config.max_age
             || self.x_ref.len() != view.n_particles()
             || self.ritz.len() != view.n_nodes() * D
         {
+            return true;
+        }
+        let (m_min, active) = Self::node_mass_summary(view);
+        if active == 0 || m_min < (1.0 - self.config.refresh_mass) * self.mass_ref.0 {
             return true;
         }
         let h = view.grid.h;
@@ -172,8 +196,10 @@ impl<const D: usize> StabilityNd<D> {
         self.stiff_ref = (0..view.n_particles())
             .map(|p| Self::stiffness(view, p))
             .collect();
+        self.mass_ref = Self::node_mass_summary(view);
         self.age = 0;
         self.refreshes += 1;
+        self.applications += r.applications as u64;
         self.lambda = Some(lambda);
         Ok(lambda)
     }
@@ -191,7 +217,8 @@ where
         let mut metrics = Metrics::new();
         let lambda = if self.stale(state) {
             let l = self.refresh(state)?;
-            metrics.insert("refreshed".into(), 1.0);
+            metrics.insert("refreshes".into(), self.refreshes as f64);
+            metrics.insert("lanczos_applications".into(), self.applications as f64);
             l
         } else {
             self.lambda.unwrap_or(f64::INFINITY)
