@@ -30,6 +30,9 @@ pub(super) fn compute_weights<const D: usize>(
             for (k, slot) in idx[a].iter_mut().enumerate().take(n_axis) {
                 match grid.storage_along(a, st[a].first + k as i64) {
                     Some(i) => *slot = i * strides[a],
+                    // A padding slot (weight and derivative zero) past the ghost node: any
+                    // stored node will do.
+                    None if st[a].s[k] == 0.0 && st[a].d[k] == 0.0 => *slot = 0,
                     None => return Err(p),
                 }
             }
@@ -155,7 +158,9 @@ pub(super) struct Written<'a, const D: usize> {
 }
 
 /// Grid → particle: `v_p += dt Σ S a_i`, `L_p = Σ v_iⁿ⁺¹ ⊗ ∇S_ip`, `F ← F + dt L F`, the
-/// stress update, `x += dt v_pⁿ⁺¹` (periodic axes wrap into `[origin, origin + L)`).
+/// stress update, `x += dt v_pⁿ⁺¹` (periodic axes wrap into `[origin, origin + L)`; on a
+/// fixed axis a particle that crossed a wall by less than half a cell is put back on it
+/// with its normal velocity removed, further is an `OutOfDomain` error).
 /// `node_v1` holds `v_iⁿ⁺¹ = v_i + dt a_i`.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn grid_to_particle<const D: usize>(
@@ -182,7 +187,7 @@ pub(super) fn grid_to_particle<const D: usize>(
             acc += from.node_a[i] * w;
             l += node_v1[i] * g.transpose();
         }
-        let v = from.v[p] + acc * dt;
+        let mut v = from.v[p] + acc * dt;
         let f = from.f[p] + l * from.f[p] * dt;
         let sigma = material[p].update(&from.sigma[p], &l, &f, dt);
         let mut x = from.x[p] + v * dt;
@@ -198,8 +203,17 @@ pub(super) fn grid_to_particle<const D: usize>(
                     }
                 }
                 Boundary::Fixed => {
-                    if !(lo..=lo + len).contains(&x[a]) && x[a].is_finite() {
-                        return Err(ParticleFault::OutOfDomain(p, x[a]));
+                    // A particle that crosses a wall by less than half a cell is put back on
+                    // the wall with its velocity component across it removed (the walls hold
+                    // their nodes at rest: an inelastic, sticking wall); further is an
+                    // error (a blow-up, not contact).
+                    let slack = 0.5 * grid.h[a];
+                    if x[a] < lo || x[a] > lo + len {
+                        if !(lo - slack..=lo + len + slack).contains(&x[a]) && x[a].is_finite() {
+                            return Err(ParticleFault::OutOfDomain(p, x[a]));
+                        }
+                        x[a] = x[a].clamp(lo, lo + len);
+                        v[a] = 0.0;
                     }
                 }
             }

@@ -10,6 +10,7 @@ mod kernels;
 mod material;
 mod particles;
 pub mod problems;
+pub mod scenario;
 mod shape;
 mod solver;
 mod view;

@@ -1,0 +1,366 @@
+//! Runs a scenario of any dimension under mpm-dt's controller.
+//!
+//! ```text
+//! cargo run --release --example simulate -- --scenario FILE [--json] [--fixed-dt DT --steps K] [--compare]
+//! ```
+//!
+//! * default: the controller (1D: `Controller::standard`; 2D/3D: the standard limits of
+//!   `mpm_dt::limits_nd`) runs the scenario to its `t_end`; a summary is printed (one JSON
+//!   document on stdout with `--json`: `t_final`, `steps_accepted`, `steps_rejected`,
+//!   `blew_up`, `dt_min`, `dt_mean`, `dt_max`, `binding`, `velocity_error_linf` (null
+//!   without an exact solution), `energy_initial`, `energy_final`, `wall_s`);
+//! * `--fixed-dt DT --steps K`: K plain steps of DT without the controller; the summary
+//!   adds `state` (`x`, `v` as lists of d-vectors, `sigma`, `F` as d×d nested row lists);
+//! * `--compare` (2D/3D): the same solver also runs to `t_end` with the fixed rules
+//!   `dt = α · min_a h_a/(c_p + |v_a|)` for α = 0.4 and 0.5, side by side in this process,
+//!   and prints each run's steps, wall time and final error, and `wall_ratio` (controlled
+//!   wall time over each fixed rule's).
+//!
+//! Errors (a bad scenario, a failed run) print a message on stderr and exit with status 1;
+//! usage errors exit with 2.
+
+use mpm_dt::controller::{Controller, ControllerConfig, Stats};
+use mpm_dt::limits_nd::{standard_limits, SoundSpeedNd};
+use mpm_dt::nd::problems::PlaneWave;
+use mpm_dt::nd::scenario::ScenarioNd;
+use mpm_dt::nd::SolverNd;
+use mpm_dt::scenario::Scenario;
+use mpm_dt::{Dim, Dimension, Stepper, ViewNd};
+use serde_json::{json, Value};
+use std::process::ExitCode;
+use std::time::Instant;
+
+const USAGE: &str =
+    "usage: simulate --scenario FILE [--json] [--fixed-dt DT --steps K] [--compare]";
+
+struct Args {
+    scenario: String,
+    json: bool,
+    fixed: Option<(f64, u64)>,
+    compare: bool,
+}
+
+fn parse_args() -> Result<Option<Args>, String> {
+    let mut scenario = None;
+    let (mut json, mut compare) = (false, false);
+    let (mut dt, mut steps) = (None, None);
+    let mut it = std::env::args().skip(1);
+    while let Some(a) = it.next() {
+        match a.as_str() {
+            "--help" | "-h" => return Ok(None),
+            "--json" => json = true,
+            "--compare" => compare = true,
+            "--scenario" => scenario = Some(it.next().ok_or("--scenario needs a file")?),
+            "--fixed-dt" => {
+                let v = it.next().ok_or("--fixed-dt needs a value")?;
+                let v: f64 = v
+                    .parse()
+                    .map_err(|_| format!("--fixed-dt: not a number: {v}"))?;
+                if !(v.is_finite() && v > 0.0) {
+                    return Err("--fixed-dt must be a positive number".into());
+                }
+                dt = Some(v);
+            }
+            "--steps" => {
+                let v = it.next().ok_or("--steps needs a value")?;
+                let v: u64 = v
+                    .parse()
+                    .map_err(|_| format!("--steps: not a count: {v}"))?;
+                if v == 0 {
+                    return Err("--steps must be at least 1".into());
+                }
+                steps = Some(v);
+            }
+            other => return Err(format!("unknown argument {other}")),
+        }
+    }
+    let fixed = match (dt, steps) {
+        (Some(dt), Some(k)) => Some((dt, k)),
+        (None, None) => None,
+        _ => return Err("--fixed-dt and --steps go together".into()),
+    };
+    let scenario = scenario.ok_or("--scenario FILE is required")?;
+    Ok(Some(Args {
+        scenario,
+        json,
+        fixed,
+        compare,
+    }))
+}
+
+fn stats_summary(stats: &Stats) -> Value {
+    json!({
+        "steps_accepted": stats.accepted,
+        "steps_rejected": stats.rejected,
+        "dt_min": stats.dt_min,
+        "dt_mean": stats.dt_mean(),
+        "dt_max": stats.dt_max,
+        "binding": stats.binding,
+    })
+}
+
+/// Velocity error `max_p |v_p − v(x_p, t)|∞ / (A c)` against a plane wave.
+fn wave_error<const D: usize>(s: &SolverNd<D>, wave: &PlaneWave<D>) -> f64
+where
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+{
+    let view = s.view();
+    let scale = wave.amplitude.abs() * wave.speed;
+    (0..view.n_particles())
+        .map(|p| (view.v[p] - wave.velocity(&view.x[p], view.t)).amax() / scale)
+        .fold(0.0, f64::max)
+}
+
+fn state_json<const D: usize>(s: &SolverNd<D>) -> Value
+where
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+{
+    let view = s.view();
+    let vecs = |v: &[mpm_dt::nd::Vector<D>]| -> Value {
+        v.iter()
+            .map(|x| x.iter().copied().collect::<Vec<f64>>())
+            .collect()
+    };
+    let mats = |m: &[mpm_dt::nd::Tensor<D>]| -> Value {
+        m.iter()
+            .map(|t| {
+                (0..D)
+                    .map(|r| (0..D).map(|c| t[(r, c)]).collect::<Vec<f64>>())
+                    .collect::<Vec<_>>()
+            })
+            .collect()
+    };
+    json!({"x": vecs(view.x), "v": vecs(view.v), "sigma": mats(view.sigma), "F": mats(view.f)})
+}
+
+/// A fixed-rule run `dt = α · min_a h_a/(c_p + |v_a|)` to `t_end`: (steps, wall, blew up).
+fn run_alpha<const D: usize>(
+    mut s: SolverNd<D>,
+    alpha: f64,
+    t_end: f64,
+) -> (u64, f64, bool, SolverNd<D>)
+where
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+{
+    let e0 = s.total_energy();
+    let start = Instant::now();
+    let mut blew_up = false;
+    while s.time() < t_end * (1.0 - 1e-14) {
+        let unit = match SoundSpeedNd::unit_step(&s.view()) {
+            Ok(u) => u,
+            Err(_) => {
+                blew_up = true;
+                break;
+            }
+        };
+        let dt = (alpha * unit).min(t_end - s.time());
+        if s.try_step(dt).and_then(|_| s.accept()).is_err() {
+            blew_up = true;
+            break;
+        }
+        let e = s.total_energy();
+        if !e.is_finite() || e > 10.0 * e0.max(f64::MIN_POSITIVE) {
+            blew_up = true;
+            break;
+        }
+    }
+    (s.step_count(), start.elapsed().as_secs_f64(), blew_up, s)
+}
+
+fn run_nd<const D: usize>(scenario: &ScenarioNd, args: &Args) -> Result<Value, String>
+where
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+{
+    let (mut s, wave) = scenario.build::<D>().map_err(|e| e.to_string())?;
+    let template = s.clone();
+    let e0 = s.total_energy();
+    let describe = format!(
+        "{D}D, {} particles, cells {:?}, shape {:?}",
+        s.n_particles(),
+        s.grid().cells,
+        s.shape()
+    );
+    eprintln!("simulate: {describe}, t_end = {}", scenario.t_end);
+    if let Some((dt, k)) = args.fixed {
+        let mut error = None;
+        for _ in 0..k {
+            if let Err(e) = s.try_step(dt).and_then(|_| s.accept()) {
+                error = Some(e.to_string());
+                break;
+            }
+        }
+        let e = s.total_energy();
+        let blew_up = error.is_some() || !e.is_finite() || e > 10.0 * e0;
+        let mut out = json!({
+            "t_final": s.time(), "steps_accepted": s.step_count(), "steps_rejected": 0,
+            "blew_up": blew_up, "dt_min": dt, "dt_mean": dt, "dt_max": dt, "binding": {},
+            "velocity_error_linf": wave.as_ref().map(|w| wave_error(&s, w)),
+            "energy_initial": e0, "energy_final": e, "error": error,
+        });
+        out["state"] = state_json(&s);
+        return Ok(out);
+    }
+    let config: ControllerConfig = scenario.controller_config().map_err(|e| e.to_string())?;
+    let gravity = scenario
+        .gravity
+        .as_ref()
+        .map(|g| mpm_dt::nd::Vector::<D>::from_fn(|a, _| g[a]))
+        .unwrap_or_else(mpm_dt::nd::Vector::<D>::zeros);
+    let limits = standard_limits::<D>(&config, gravity);
+    let mut controller = Controller::<D>::new(config, limits).map_err(|e| e.to_string())?;
+    let start = Instant::now();
+    let mut last_rejection = None;
+    let run = controller.run_until(&mut s, scenario.t_end, &mut |d| {
+        if d.outcome == mpm_dt::controller::Outcome::Rejected {
+            last_rejection = Some(d.clone());
+        }
+    });
+    let wall = start.elapsed().as_secs_f64();
+    let error = run.err().map(|e| {
+        let why = last_rejection
+            .as_ref()
+            .map(|d| {
+                format!(
+                    "; last rejection by {} ({})",
+                    d.rejected_by.as_deref().unwrap_or("?"),
+                    d.message.as_deref().unwrap_or("no message")
+                )
+            })
+            .unwrap_or_default();
+        format!("{e}{why}")
+    });
+    let mut out = stats_summary(controller.stats());
+    let e = s.total_energy();
+    out["t_final"] = json!(s.time());
+    out["blew_up"] = json!(error.is_some() || !e.is_finite() || e > 10.0 * e0);
+    out["velocity_error_linf"] = json!(wave.as_ref().map(|w| wave_error(&s, w)));
+    out["energy_initial"] = json!(e0);
+    out["energy_final"] = json!(e);
+    out["wall_s"] = json!(wall);
+    out["error"] = json!(error);
+    if args.compare {
+        let mut rules = Vec::new();
+        for alpha in [0.4, 0.5] {
+            let (steps, w, blew_up, fs) = run_alpha(template.clone(), alpha, scenario.t_end);
+            let err = wave.as_ref().map(|wv| wave_error(&fs, wv));
+            eprintln!(
+                "simulate: alpha {alpha}: {steps} steps, {w:.3} s, blew up {blew_up}, error {err:?}"
+            );
+            rules.push(
+                json!({"alpha": alpha, "steps": steps, "wall_s": w, "blew_up": blew_up,
+                "velocity_error_linf": err, "wall_ratio": wall / w}),
+            );
+        }
+        out["fixed_rules"] = json!(rules);
+    }
+    Ok(out)
+}
+
+fn run_1d(text: &str, args: &Args) -> Result<Value, String> {
+    // The 1D format has no `dim`; drop an explicit `"dim": 1`.
+    let mut value: Value = serde_json::from_str(text).map_err(|e| e.to_string())?;
+    if let Some(o) = value.as_object_mut() {
+        o.remove("dim");
+    }
+    let scenario = Scenario::from_json(&value.to_string()).map_err(|e| e.to_string())?;
+    let mut s = scenario.build().map_err(|e| e.to_string())?;
+    let e0 = s.total_energy();
+    if let Some((dt, k)) = args.fixed {
+        let mut error = None;
+        for _ in 0..k {
+            if let Err(e) = s.try_step(dt).and_then(|_| s.accept()) {
+                error = Some(e.to_string());
+                break;
+            }
+        }
+        let view = s.view();
+        let e = s.total_energy();
+        let one = |v: &[f64]| -> Value { v.iter().map(|x| json!([x])).collect() };
+        let two = |v: &[f64]| -> Value { v.iter().map(|x| json!([[x]])).collect() };
+        return Ok(json!({
+            "t_final": s.time(), "steps_accepted": s.step_count(), "steps_rejected": 0,
+            "blew_up": error.is_some() || !e.is_finite() || e > 10.0 * e0,
+            "dt_min": dt, "dt_mean": dt, "dt_max": dt, "binding": {},
+            "velocity_error_linf": null, "energy_initial": e0, "energy_final": e, "error": error,
+            "state": {"x": one(view.x), "v": one(view.v), "sigma": two(view.sigma), "F": two(view.f)},
+        }));
+    }
+    let config = scenario.controller_config().map_err(|e| e.to_string())?;
+    let mut controller = Controller::standard(config).map_err(|e| e.to_string())?;
+    let start = Instant::now();
+    let error = controller
+        .run_until(&mut s, scenario.t_end, &mut |_| {})
+        .err()
+        .map(|e| e.to_string());
+    let mut out = stats_summary(controller.stats());
+    let e = s.total_energy();
+    out["t_final"] = json!(s.time());
+    out["blew_up"] = json!(error.is_some() || !e.is_finite() || e > 10.0 * e0);
+    out["velocity_error_linf"] = Value::Null;
+    out["energy_initial"] = json!(e0);
+    out["energy_final"] = json!(e);
+    out["wall_s"] = json!(start.elapsed().as_secs_f64());
+    out["error"] = json!(error);
+    Ok(out)
+}
+
+fn main() -> ExitCode {
+    let args = match parse_args() {
+        Ok(Some(a)) => a,
+        Ok(None) => {
+            println!("{USAGE}");
+            return ExitCode::SUCCESS;
+        }
+        Err(e) => {
+            eprintln!("error: {e}\n{USAGE}");
+            return ExitCode::from(2);
+        }
+    };
+    let result = std::fs::read_to_string(&args.scenario)
+        .map_err(|e| format!("cannot read {}: {e}", args.scenario))
+        .and_then(|text| {
+            let dim = ScenarioNd::dim_of(&text).map_err(|e| e.to_string())?;
+            match dim {
+                1 => run_1d(&text, &args),
+                d => {
+                    let scenario = ScenarioNd::from_json(&text).map_err(|e| e.to_string())?;
+                    if d == 2 {
+                        run_nd::<2>(&scenario, &args)
+                    } else {
+                        run_nd::<3>(&scenario, &args)
+                    }
+                }
+            }
+        });
+    match result {
+        Ok(summary) => {
+            let failed = summary["blew_up"].as_bool().unwrap_or(false);
+            if args.json {
+                println!("{summary}");
+            } else {
+                let mut shown = summary.clone();
+                if let Some(o) = shown.as_object_mut() {
+                    o.remove("state");
+                }
+                println!(
+                    "{}",
+                    serde_json::to_string_pretty(&shown).unwrap_or_default()
+                );
+            }
+            if failed {
+                eprintln!(
+                    "error: the run blew up or stopped: {}",
+                    summary["error"]
+                        .as_str()
+                        .unwrap_or("energy grew above 10x its start")
+                );
+                return ExitCode::FAILURE;
+            }
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
