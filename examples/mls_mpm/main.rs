@@ -239,7 +239,7 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     }
-    if scene.n_grid < 16 || scene.n_grid > 4096 || !(scene.t_end > 0.0) {
+    if scene.n_grid < 16 || scene.n_grid > 4096 || scene.t_end.is_nan() || scene.t_end <= 0.0 {
         eprintln!("error: --grid must be in 16..=4096 and --t-end positive");
         return ExitCode::from(2);
     }
