@@ -33,10 +33,11 @@
 
 mod common;
 
-use mpm_dt::controller::{Controller, Decision, Outcome, Stats};
+use common::history::DtHistory;
+use mpm_dt::controller::{Controller, Outcome, Stats};
 use mpm_dt::mpm::ReferenceStepper;
 use mpm_dt::scenario::Scenario;
-use mpm_dt::{closing_half_step, Stepper};
+use mpm_dt::Stepper;
 use serde_json::json;
 use std::collections::BTreeMap;
 use std::process::ExitCode;
@@ -52,6 +53,9 @@ struct Args {
 }
 
 const USAGE: &str = "usage: vibrating_bar [--scenario FILE] [--json] [--log-json] [--plot FILE.svg] [--fixed-dt DT --steps K]";
+
+/// `parse_args`' answer to `--help` (printed on stdout, exit status 0).
+const HELP: &str = "help";
 
 fn parse_args() -> Result<Args, String> {
     let mut args = Args {
@@ -79,15 +83,18 @@ fn parse_args() -> Result<Args, String> {
             }
             "--steps" => {
                 let v = value("--steps")?;
-                args.steps = Some(
-                    v.parse()
-                        .map_err(|_| format!("--steps: not a non-negative integer: {v}"))?,
-                );
+                let k: u64 = v
+                    .parse()
+                    .map_err(|_| format!("--steps: not a positive integer: {v}"))?;
+                if k == 0 {
+                    return Err("--steps must be at least 1".into());
+                }
+                args.steps = Some(k);
             }
             "--json" => args.json = true,
             "--log-json" => args.log_json = true,
             "--plot" => args.plot = Some(value("--plot")?),
-            "-h" | "--help" => return Err(USAGE.into()),
+            "-h" | "--help" => return Err(HELP.into()),
             other => return Err(format!("unknown argument {other}\n{USAGE}")),
         }
     }
@@ -98,10 +105,27 @@ fn parse_args() -> Result<Args, String> {
     }
 }
 
-/// What a run produced.
+/// What a run produced: running statistics of the accepted steps (constant memory).
+#[derive(Default)]
 struct Run {
-    dts: Vec<f64>,
+    n: u64,
+    dt_sum: f64,
+    dt_min: f64,
+    dt_max: f64,
     failure: Option<String>,
+}
+
+impl Run {
+    fn push(&mut self, dt: f64) {
+        if self.n == 0 {
+            self.dt_min = dt;
+            self.dt_max = dt;
+        }
+        self.n += 1;
+        self.dt_sum += dt;
+        self.dt_min = self.dt_min.min(dt);
+        self.dt_max = self.dt_max.max(dt);
+    }
 }
 
 /// Takes `dt`-steps from `next_dt` until it returns `None` or a step fails.
@@ -109,176 +133,101 @@ fn drive(
     stepper: &mut ReferenceStepper,
     mut next_dt: impl FnMut(&ReferenceStepper) -> Option<f64>,
 ) -> Run {
-    let mut dts = Vec::new();
+    let mut run = Run::default();
     while let Some(dt) = next_dt(stepper) {
-        if let Err(e) = stepper.try_step(dt) {
+        if let Err(e) = stepper.try_step(dt).and_then(|_| stepper.accept()) {
             tracing::error!(error = %e, "step failed");
-            return Run {
-                dts,
-                failure: Some(e.to_string()),
-            };
+            run.failure = Some(e.to_string());
+            return run;
         }
-        if let Err(e) = stepper.accept() {
-            return Run {
-                dts,
-                failure: Some(e.to_string()),
-            };
-        }
-        dts.push(dt);
+        run.push(dt);
     }
-    Run { dts, failure: None }
+    run
 }
 
-/// The controller run: stability + temporal error + growth monitor, config from the
-/// scenario's `controller` field.
+/// The controller run: the standard limits, config from the scenario's `controller` field.
+/// Every decision goes to the bounded `history`; a progress line reaches stderr every 2 s.
 fn run_controller(
     stepper: &mut ReferenceStepper,
     scenario: &Scenario,
-    decisions: &mut Vec<Decision>,
+    history: &mut DtHistory,
+    unit: f64,
 ) -> Result<(Run, Stats, f64), String> {
     let config = scenario.controller_config().map_err(|e| e.to_string())?;
-    // The standard set: sound-speed cap, stability (eq 56 at safety 0.95, eq 58 check),
-    // temporal error, growth monitor (which lowers the stability safety when it sees growth).
     let mut controller = Controller::standard(config).map_err(|e| e.to_string())?;
     tracing::info!(
         t_end = scenario.t_end,
-        limits = ?controller.limit_names(),
+        limits = serde_json::to_string(&controller.limit_names())
+            .unwrap_or_default()
+            .as_str(),
         "adaptive controller run"
     );
+    let started = std::time::Instant::now();
+    let mut last_report = started;
+    let mut run = Run::default();
     let result = controller
-        .run_until(stepper, scenario.t_end, &mut |d| decisions.push(d.clone()))
+        .run_until(stepper, scenario.t_end, &mut |d| {
+            history.record(d);
+            if d.outcome == Outcome::Accepted {
+                run.push(d.dt);
+            }
+            if last_report.elapsed().as_secs_f64() >= 2.0 {
+                last_report = std::time::Instant::now();
+                eprintln!(
+                    "  t = {:.4e} of {:.4e}  step {}  dt = {:.3} h/c  ({:.0} s)",
+                    d.t,
+                    scenario.t_end,
+                    d.step,
+                    d.dt / unit,
+                    started.elapsed().as_secs_f64()
+                );
+            }
+        })
         .map(|_| ());
-    let dts = decisions
-        .iter()
-        .filter(|d| d.outcome == Outcome::Accepted)
-        .map(|d| d.dt)
-        .collect();
-    let failure = result.err().map(|e| {
-        tracing::error!(error = %e, "controller stopped");
-        e.to_string()
-    });
+    run.failure = result.err().map(|e| e.to_string());
     Ok((
-        Run { dts, failure },
+        run,
         controller.stats().clone(),
         controller.state().safety_scale,
     ))
 }
 
-/// Draws dt against t: accepted steps, each limit's proposal, rejected attempts.
-fn plot(path: &str, decisions: &[Decision]) -> Result<(), Box<dyn std::error::Error>> {
-    use plotters::prelude::*;
-    let accepted: Vec<(f64, f64)> = decisions
-        .iter()
-        .filter(|d| d.outcome == Outcome::Accepted)
-        .map(|d| (d.t, d.dt))
-        .collect();
-    let rejected: Vec<(f64, f64)> = decisions
-        .iter()
-        .filter(|d| d.outcome == Outcome::Rejected)
-        .map(|d| (d.t, d.dt))
-        .collect();
-    let mut names: Vec<String> = Vec::new();
-    for d in decisions {
-        for l in &d.limits {
-            if l.proposal.is_some() && !names.contains(&l.name) {
-                names.push(l.name.clone());
-            }
+/// What the scenario is, in one line.
+fn describe(scenario: &Scenario, stepper: &ReferenceStepper) -> String {
+    let amplitude = match &scenario.initial {
+        mpm_dt::scenario::Initial::StandingWave { amplitude, mode } => {
+            format!("standing wave, amplitude {amplitude}, mode {mode}")
         }
-    }
-    let proposals: Vec<Vec<(f64, f64)>> = names
-        .iter()
-        .map(|n| {
-            decisions
-                .iter()
-                .filter(|d| d.attempt == 1)
-                .filter_map(|d| {
-                    d.limits
-                        .iter()
-                        .find(|l| &l.name == n)
-                        .and_then(|l| l.proposal)
-                        .map(|p| (d.t, p))
-                })
-                .collect()
-        })
-        .collect();
-    let filter: Vec<(f64, f64)> = decisions
-        .iter()
-        .filter(|d| d.attempt == 1)
-        .filter_map(|d| d.filter_dt.map(|f| (d.t, f)))
-        .collect();
-    let all = accepted
-        .iter()
-        .chain(&rejected)
-        .chain(proposals.iter().flatten())
-        .chain(&filter);
-    let (mut t1, mut lo, mut hi) = (0.0_f64, f64::INFINITY, 0.0_f64);
-    for &(t, dt) in all {
-        t1 = t1.max(t);
-        lo = lo.min(dt);
-        hi = hi.max(dt);
-    }
-    if !(lo.is_finite() && hi > 0.0) {
-        return Err("nothing to plot".into());
-    }
-    let root = SVGBackend::new(path, (1000, 600)).into_drawing_area();
-    root.fill(&WHITE)?;
-    let mut chart = ChartBuilder::on(&root)
-        .caption("time step against time", ("sans-serif", 22))
-        .margin(12)
-        .x_label_area_size(40)
-        .y_label_area_size(70)
-        .build_cartesian_2d(
-            0.0..t1.max(1e-300) * 1.02,
-            (lo * 0.8..hi * 1.25).log_scale(),
-        )?;
-    chart.configure_mesh().x_desc("t").y_desc("dt").draw()?;
-    chart
-        .draw_series(LineSeries::new(
-            accepted.iter().copied(),
-            BLACK.stroke_width(2),
-        ))?
-        .label("accepted dt")
-        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK));
-    for (i, (name, pts)) in names.iter().zip(&proposals).enumerate() {
-        let color = Palette99::pick(i + 1).to_rgba();
-        chart
-            .draw_series(LineSeries::new(pts.iter().copied(), color))?
-            .label(format!("{name} proposal"))
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color));
-    }
-    if !filter.is_empty() {
-        let color = Palette99::pick(names.len() + 2).to_rgba();
-        chart
-            .draw_series(LineSeries::new(filter.iter().copied(), color))?
-            .label("filter proposal")
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color));
-    }
-    chart
-        .draw_series(
-            rejected
-                .iter()
-                .map(|&p| Cross::new(p, 5, RED.stroke_width(2))),
-        )?
-        .label("rejected attempt")
-        .legend(|(x, y)| Cross::new((x + 10, y), 5, RED.stroke_width(2)));
-    chart
-        .configure_series_labels()
-        .border_style(BLACK)
-        .background_style(WHITE.mix(0.8))
-        .draw()?;
-    root.present()?;
-    Ok(())
+        other => format!("{other:?}").to_lowercase(),
+    };
+    format!(
+        "{} cells, {} particles ({:?} weights), {:?} ends, {:?}, E = {}, rho = {}, {amplitude}, to t = {}",
+        stepper.grid().cells,
+        stepper.n_particles(),
+        stepper.shape(),
+        stepper.grid().boundary,
+        stepper.material(),
+        scenario.youngs_modulus,
+        scenario.density,
+        scenario.t_end
+    )
 }
 
 fn main() -> ExitCode {
     let args = match parse_args() {
         Ok(a) => a,
+        Err(msg) if msg == HELP => {
+            println!("{USAGE}");
+            return ExitCode::SUCCESS;
+        }
         Err(msg) => {
-            eprintln!("{msg}");
+            eprintln!("error: {msg}\n{USAGE}");
             return ExitCode::from(2);
         }
     };
-    common::init_logs("info", args.log_json);
+    // Each attempt is an INFO event of the library: shown with RUST_LOG=info (or debug for
+    // every limit's proposal); by default only warnings, with a progress line every 2 s.
+    common::init_logs("warn", args.log_json);
     let scenario = match &args.scenario {
         Some(path) => match Scenario::from_file(path) {
             Ok(s) => s,
@@ -301,7 +250,9 @@ fn main() -> ExitCode {
     let h = stepper.grid().h;
     let c = scenario.wave_speed();
 
-    let mut decisions: Vec<Decision> = Vec::new();
+    let unit = h / c;
+    eprintln!("vibrating_bar: {}", describe(&scenario, &stepper));
+    let mut history = DtHistory::new();
     let mut controller_stats: Option<(Stats, f64)> = None;
     let (run, mode) = match (args.fixed_dt, args.steps) {
         (Some(dt), Some(k)) => {
@@ -309,7 +260,7 @@ fn main() -> ExitCode {
             let run = drive(&mut stepper, |s| (s.step_count() < k).then_some(dt));
             (run, "fixed_dt")
         }
-        _ => match run_controller(&mut stepper, &scenario, &mut decisions) {
+        _ => match run_controller(&mut stepper, &scenario, &mut history, unit) {
             Ok((run, stats, safety_scale)) => {
                 controller_stats = Some((stats, safety_scale));
                 (run, "controller")
@@ -321,7 +272,17 @@ fn main() -> ExitCode {
         },
     };
     if let Some(path) = &args.plot {
-        if let Err(e) = plot(path, &decisions) {
+        let title = format!(
+            "mpm-dt: {} cells, {:?}, {} to t = {}",
+            stepper.grid().cells,
+            stepper.shape(),
+            match scenario.initial {
+                mpm_dt::scenario::Initial::StandingWave { .. } => "standing wave",
+                _ => "at rest",
+            },
+            scenario.t_end
+        );
+        if let Err(e) = common::plot::plot_dt(path, &history, unit, &title) {
             eprintln!("error: cannot draw {path}: {e}");
             return ExitCode::from(1);
         }
@@ -334,17 +295,16 @@ fn main() -> ExitCode {
         || (energy_initial > 0.0 && energy_final > 10.0 * energy_initial);
     // ℓ of the synchronised velocity (module docs).
     let half_step = match args.fixed_dt {
-        Some(dt) if !run.dts.is_empty() => 0.5 * dt,
+        Some(dt) if run.n > 0 => 0.5 * dt,
         Some(_) => 0.0,
-        None => closing_half_step(&decisions).unwrap_or(0.0),
+        None => history.closing_half_step.unwrap_or(0.0),
     };
     let (velocity_error_linf, velocity_error_linf_raw) =
         common::velocity_errors(&scenario, &x0, &view, half_step);
-    let n = run.dts.len();
-    let dt_min = run.dts.iter().copied().fold(f64::INFINITY, f64::min);
-    let dt_max = run.dts.iter().copied().fold(0.0, f64::max);
+    let n = run.n;
+    let (dt_min, dt_max) = (run.dt_min, run.dt_max);
     let dt_mean = if n > 0 {
-        run.dts.iter().sum::<f64>() / n as f64
+        run.dt_sum / n as f64
     } else {
         f64::NAN
     };
@@ -356,7 +316,7 @@ fn main() -> ExitCode {
             steps_rejected = stats.rejected;
         }
         None => {
-            binding.insert(mode.to_string(), n as u64);
+            binding.insert(mode.to_string(), n);
         }
     }
     let finite = |x: f64| x.is_finite().then_some(x);
@@ -367,7 +327,7 @@ fn main() -> ExitCode {
         "steps_rejected": steps_rejected,
         "blew_up": blew_up,
         "failure": run.failure,
-        "dt_min": finite(dt_min),
+        "dt_min": if n > 0 { Some(dt_min) } else { None },
         "dt_mean": finite(dt_mean),
         "dt_max": if n > 0 { Some(dt_max) } else { None },
         "binding": binding,
@@ -393,21 +353,33 @@ fn main() -> ExitCode {
     }
     if args.json {
         println!("{out}");
+    } else if n == 0 {
+        println!("no step was taken (t = {:.6})", view.t);
     } else {
         println!(
-            "t = {:.6}  steps = {} ({} rejected)  mean dt = {:.3e}  blew up: {}  energy {:.6e} -> {:.6e}  |v_sync - v_exact|_inf = {} (raw {})  binding {:?}",
+            "t = {:.6}  steps = {} ({} rejected)  dt mean {:.3e} s = {:.3} h/c (min {:.3}, max {:.3} h/c)  blew up: {}  energy {:.6e} -> {:.6e}  |v_sync - v_exact|_inf = {}  binding {:?}",
             view.t,
             n,
             steps_rejected,
             dt_mean,
+            dt_mean / unit,
+            dt_min / unit,
+            dt_max / unit,
             blew_up,
             energy_initial,
             energy_final,
             velocity_error_linf.map_or("n/a".to_string(), |e| format!("{e:.3e}")),
-            velocity_error_linf_raw.map_or("n/a".to_string(), |e| format!("{e:.3e}")),
             binding,
         );
     }
-    // A blow-up is a result (`blew_up`), not a failure of the program.
+    if blew_up {
+        eprintln!(
+            "error: the run failed: {}",
+            run.failure
+                .as_deref()
+                .unwrap_or("the energy grew above 10x its start or became non-finite")
+        );
+        return ExitCode::FAILURE;
+    }
     ExitCode::SUCCESS
 }

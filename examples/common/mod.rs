@@ -3,6 +3,9 @@
 // Each example uses a part of this module.
 #![allow(dead_code)]
 
+pub mod history;
+pub mod plot;
+
 use mpm_dt::scenario::Scenario;
 use mpm_dt::View;
 
