@@ -56,7 +56,7 @@ impl DtHistory {
         if accepted {
             self.accepted_seen += 1;
             // Keep every stride-th accepted step, and always the landing step.
-            if !landing && (self.accepted_seen - 1) % self.stride != 0 {
+            if !landing && !(self.accepted_seen - 1).is_multiple_of(self.stride) {
                 return;
             }
         }

@@ -125,7 +125,7 @@ pub fn plot_dt(
                 s.iter().copied(),
                 8,
                 5,
-                c.stroke_width(2).into(),
+                c.stroke_width(2),
             ))?
             .label(label(name))
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], c.stroke_width(2)));
