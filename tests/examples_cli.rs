@@ -1,0 +1,138 @@
+//! Capability: the examples a new user runs first answer with the right exit status — 0 for
+//! `--help` and a run that reaches its end, 1 for a run that blows up or cannot go on, 2 for
+//! a usage error — and say why on stderr.
+//!
+//! `cargo test` builds the examples next to the test binaries (`target/<profile>/examples/`);
+//! the tests run those binaries.
+
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+/// The built example `name` (beside this test's own directory).
+fn example(name: &str) -> PathBuf {
+    let exe = std::env::current_exe().expect("test executable path");
+    // target/<profile>/deps/<test> -> target/<profile>/examples/<name>
+    let dir = exe
+        .parent()
+        .and_then(|d| d.parent())
+        .expect("target/<profile>")
+        .join("examples");
+    let path = dir.join(format!("{name}{}", std::env::consts::EXE_SUFFIX));
+    assert!(
+        path.exists(),
+        "example binary {} not found: `cargo test` builds examples; run it from the workspace",
+        path.display()
+    );
+    path
+}
+
+fn run(name: &str, args: &[&str]) -> Output {
+    Command::new(example(name))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("example runs")
+}
+
+fn scenario_file(name: &str, json: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("mpm-dt-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join(name);
+    std::fs::write(&path, json).unwrap();
+    path
+}
+
+#[test]
+fn help_exits_zero_with_usage_on_stdout() {
+    for name in ["vibrating_bar", "simulate"] {
+        let out = run(name, &["--help"]);
+        assert_eq!(out.status.code(), Some(0), "{name}");
+        assert!(String::from_utf8_lossy(&out.stdout).contains("usage"), "{name}");
+    }
+}
+
+#[test]
+fn a_blow_up_exits_one() {
+    let out = run("vibrating_bar", &["--fixed-dt", "10", "--steps", "100"]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("error"));
+}
+
+#[test]
+fn a_controller_that_cannot_go_on_exits_one() {
+    let path = scenario_file("dt_min.json", r#"{"controller": {"dt_min": 0.5}}"#);
+    let out = run("vibrating_bar", &["--scenario", path.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("too small"), "{err}");
+}
+
+#[test]
+fn zero_steps_is_a_usage_error() {
+    let out = run("vibrating_bar", &["--fixed-dt", "0.01", "--steps", "0"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(!String::from_utf8_lossy(&out.stdout).contains("NaN"));
+}
+
+#[test]
+fn a_bad_scenario_exits_one_naming_the_field() {
+    let path = scenario_file(
+        "bad_nd.json",
+        r#"{"dim": 2, "cells": 4, "poisson_ratio": 0.5, "t_end": 0.1}"#,
+    );
+    let out = run("simulate", &["--scenario", path.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("poisson_ratio"));
+}
+
+#[test]
+fn simulate_runs_a_2d_scenario_and_reports_the_contract_keys() {
+    let out = run(
+        "simulate",
+        &["--scenario", "scenarios/nd/plane_p_2d.json", "--json"],
+    );
+    assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("one JSON document");
+    for key in [
+        "t_final",
+        "steps_accepted",
+        "steps_rejected",
+        "blew_up",
+        "dt_min",
+        "dt_mean",
+        "dt_max",
+        "binding",
+        "velocity_error_linf",
+        "energy_initial",
+        "energy_final",
+    ] {
+        assert!(v.get(key).is_some(), "missing {key}");
+    }
+    assert_eq!(v["blew_up"], serde_json::Value::Bool(false));
+    assert!((v["t_final"].as_f64().unwrap() - 0.5).abs() < 1e-12);
+}
+
+#[test]
+fn simulate_fixed_dt_reports_the_full_state() {
+    let out = run(
+        "simulate",
+        &[
+            "--scenario",
+            "scenarios/nd/plane_p_2d.json",
+            "--json",
+            "--fixed-dt",
+            "0.005",
+            "--steps",
+            "3",
+        ],
+    );
+    assert_eq!(out.status.code(), Some(0));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let state = &v["state"];
+    let n = state["x"].as_array().unwrap().len();
+    assert_eq!(n, 32 * 32 * 4);
+    assert_eq!(state["x"][0].as_array().unwrap().len(), 2);
+    assert_eq!(state["F"][0].as_array().unwrap().len(), 2);
+    assert_eq!(state["F"][0][0].as_array().unwrap().len(), 2);
+    assert_eq!(v["steps_accepted"], 3);
+}
