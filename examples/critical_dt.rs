@@ -12,16 +12,15 @@
 //!   `lambda_max_gershgorin`, the rigorous `O(nnz)` upper bound;
 //! * `dt_eq56 = h √(2/(c² λmax))`;
 //! * `dt_full_map` — the exact frozen-particle critical step of the linearised USL map
-//!   (`null` above 600 particles);
-//! * `dt_controller` — the smaller of what the default `Stability` (0.9·dt_eq56) and
-//!   `SoundSpeed` (0.5·h/(c+|v|)) limits propose for the initial state. This is computed from
-//!   the two limits directly, not by running the controller (another module); the controller
-//!   takes the minimum of its limits' proposals, so it is what the controller's first step
-//!   would be without a temporal-error limit;
+//!   (`null` above 120 particles);
+//! * `dt_controller` — the smaller of what the `Stability` and `SoundSpeed` limits of
+//!   `Controller::standard` (the `ControllerConfig` defaults, or the scenario's `controller`)
+//!   propose for the initial state: the controller's first step before a temporal-error
+//!   limit has an opinion;
 //! * `bound58` — `[{dt, dt_over_eq56, value, value_consistent, value_energy, norm_2, rho}]`:
 //!   the eq 58 ratio in the paper's reading (`value`, Euclidean norm) and in the consistent
 //!   reading (Euclidean and strain-energy norms) against the spectral norm `norm_2 = ‖A‖₂`
-//!   and the spectral radius `rho = ρ(A)` (dense; `null` above 600 particles), evaluated on the
+//!   and the spectral radius `rho = ρ(A)` (dense; `null` above 120 particles), evaluated on the
 //!   state a quarter period into a run of the protocol at `0.5·dt_eq56` (the initial state has
 //!   `σ = 0`, where eq 58 has no information);
 //! * `dt_empirical` — bisection on real runs (initial `v = A c sin(2πx/L)` + noise
@@ -40,7 +39,14 @@ use mpm_dt::{StepLimit, Stepper};
 use serde_json::{json, Value};
 use std::process::ExitCode;
 
-const DENSE_LIMIT: usize = 600;
+/// Most particles for the dense tools (full map, spectral norms): their cost grows as n³
+/// per bisection step, and 120 particles keep `critical_dt` within a few seconds.
+const DENSE_LIMIT: usize = 120;
+
+const USAGE: &str = "usage: critical_dt --scenario FILE [--json] [--amplitude A]";
+
+/// `parse_args`' answer to `--help`.
+const HELP: &str = "help";
 
 struct Args {
     scenario: String,
@@ -61,9 +67,7 @@ fn parse_args() -> Result<Args, String> {
                     .parse::<f64>()
                     .map_err(|e| format!("--amplitude {v}: {e}"))?;
             }
-            "-h" | "--help" => {
-                return Err("usage: critical_dt --scenario FILE [--json] [--amplitude A]".into())
-            }
+            "-h" | "--help" => return Err(HELP.into()),
             other => return Err(format!("unknown argument {other}")),
         }
     }
@@ -74,7 +78,46 @@ fn parse_args() -> Result<Args, String> {
     })
 }
 
+/// The table of a 2D or 3D scenario (`mpm_dt::limits_nd::critical`): `cell_size`, `c_p`,
+/// `dt_sound`, `lambda_max_nodal`, `dt_eq56`, `dt_full_map` (`null`: not computed in d
+/// dimensions), `dt_controller` (the smallest proposal of the standard d-dimensional limits
+/// for the initial state), `dt_empirical` (bisection, 4000 steps, amplitude `A`).
+fn run_nd<const D: usize>(
+    scenario: &mpm_dt::nd::scenario::ScenarioNd,
+    amplitude: f64,
+) -> Result<Value, Box<dyn std::error::Error>>
+where
+    mpm_dt::Dim<D>: for<'a> mpm_dt::Dimension<View<'a> = mpm_dt::ViewNd<'a, D>>,
+{
+    let (solver, _) = scenario.build::<D>()?;
+    let table = mpm_dt::limits_nd::critical::critical_table(&solver, Some((amplitude, 4000)));
+    let config = scenario.controller_config()?;
+    let gravity = mpm_dt::nd::Vector::<D>::zeros();
+    let view = solver.view();
+    let mut dt_controller = f64::INFINITY;
+    for mut limit in mpm_dt::limits_nd::standard_limits::<D>(&config, gravity) {
+        dt_controller = dt_controller.min(limit.propose(&view)?.dt);
+    }
+    let mut out = serde_json::to_value(&table)?;
+    out["dt_controller"] = json!(dt_controller);
+    out["dim"] = json!(D);
+    Ok(out)
+}
+
 fn run(args: &Args) -> Result<Value, Box<dyn std::error::Error>> {
+    let text = std::fs::read_to_string(&args.scenario)
+        .map_err(|e| format!("cannot read {}: {e}", args.scenario))?;
+    match mpm_dt::nd::scenario::ScenarioNd::dim_of(&text)? {
+        1 => {}
+        d => {
+            let scenario = mpm_dt::nd::scenario::ScenarioNd::from_json(&text)?;
+            return if d == 2 {
+                run_nd::<2>(&scenario, args.amplitude)
+            } else {
+                run_nd::<3>(&scenario, args.amplitude)
+            };
+        }
+    }
     let scenario = Scenario::from_file(&args.scenario)?;
     let grid = scenario.grid()?;
     let layout = scenario.particle_init()?;
@@ -117,8 +160,16 @@ fn run(args: &Args) -> Result<Value, Box<dyn std::error::Error>> {
         None
     };
     tracing::info!(?dt_full, "full map");
-    let p_stab = Stability::default().propose(&view)?;
-    let p_sound = SoundSpeed::default().propose(&view)?;
+    // The limits as `Controller::standard` builds them from the scenario's config.
+    let config = scenario.controller_config()?;
+    let p_stab = match config.stability.clone() {
+        Some(c) => Stability::new(c)?.propose(&view)?,
+        None => mpm_dt::Proposal::no_opinion(),
+    };
+    let p_sound = match config.sound_speed {
+        Some(c) => SoundSpeed::new(c)?.propose(&view)?,
+        None => mpm_dt::Proposal::no_opinion(),
+    };
     let dt_controller = p_stab.dt.min(p_sound.dt);
 
     // eq 58 on the state a quarter period into a stable run.
@@ -196,8 +247,12 @@ fn main() -> ExitCode {
     common::init_logs("info", false);
     let args = match parse_args() {
         Ok(a) => a,
+        Err(e) if e == HELP => {
+            println!("{USAGE}");
+            return ExitCode::SUCCESS;
+        }
         Err(e) => {
-            eprintln!("{e}");
+            eprintln!("error: {e}\n{USAGE}");
             return ExitCode::from(2);
         }
     };

@@ -47,7 +47,10 @@ fn help_exits_zero_with_usage_on_stdout() {
     for name in ["vibrating_bar", "simulate"] {
         let out = run(name, &["--help"]);
         assert_eq!(out.status.code(), Some(0), "{name}");
-        assert!(String::from_utf8_lossy(&out.stdout).contains("usage"), "{name}");
+        assert!(
+            String::from_utf8_lossy(&out.stdout).contains("usage"),
+            "{name}"
+        );
     }
 }
 
@@ -91,7 +94,12 @@ fn simulate_runs_a_2d_scenario_and_reports_the_contract_keys() {
         "simulate",
         &["--scenario", "scenarios/nd/plane_p_2d.json", "--json"],
     );
-    assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("one JSON document");
     for key in [
         "t_final",
@@ -130,7 +138,7 @@ fn simulate_fixed_dt_reports_the_full_state() {
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let state = &v["state"];
     let n = state["x"].as_array().unwrap().len();
-    assert_eq!(n, 32 * 32 * 4);
+    assert_eq!(n, 16 * 16 * 4);
     assert_eq!(state["x"][0].as_array().unwrap().len(), 2);
     assert_eq!(state["F"][0].as_array().unwrap().len(), 2);
     assert_eq!(state["F"][0][0].as_array().unwrap().len(), 2);

@@ -36,6 +36,9 @@ pub struct GrowthNd<const D: usize> {
     tol: f64,
     /// `(E, K + U)` of the last `window + 1` accepted states.
     history: VecDeque<(f64, f64)>,
+    /// The energies of the last judged trial, keyed by its time and step (reused when it is
+    /// accepted: one pass over the particles per step).
+    judged: Option<(f64, u64, (f64, f64))>,
 }
 
 impl<const D: usize> GrowthNd<D> {
@@ -47,6 +50,7 @@ impl<const D: usize> GrowthNd<D> {
             window: window.max(1),
             tol,
             history: VecDeque::new(),
+            judged: None,
         }
     }
 
@@ -96,7 +100,9 @@ where
         after: &ViewNd<'_, D>,
         _dt: f64,
     ) -> Result<Judgement, LimitError> {
-        let (e_after, _) = self.energies(after);
+        let energies = self.energies(after);
+        self.judged = Some((after.t, after.step, energies));
+        let (e_after, _) = energies;
         let (e_before, ku_before) = match self.history.back() {
             Some(&b) => b,
             None => self.energies(before),
@@ -127,7 +133,10 @@ where
     }
 
     fn accepted(&mut self, _before: &ViewNd<'_, D>, after: &ViewNd<'_, D>, _dt: f64) {
-        let e = self.energies(after);
+        let e = match self.judged.take() {
+            Some((t, step, e)) if t.to_bits() == after.t.to_bits() && step == after.step => e,
+            _ => self.energies(after),
+        };
         self.history.push_back(e);
         while self.history.len() > self.window + 1 {
             self.history.pop_front();

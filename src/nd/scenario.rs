@@ -19,7 +19,8 @@
 //! to `volume^(1/d)` per axis, moduli to the scenario's), or
 //! `{"bodies": [{"box": {"min", "max"}} | {"ball": {"center", "radius"}}, "per_cell",
 //! "velocity", optional "density", "youngs_modulus", "poisson_ratio"]}` — the cell-uniform
-//! points inside each body. `initial` is `"rest"` or a `plane_wave`
+//! points inside each body; where bodies of the same `per_cell` overlap, the later body's
+//! particle replaces the earlier one's (an inclusion). `initial` is `"rest"` or a `plane_wave`
 //! ([`super::problems::PlaneWave`]). `controller` is a `ControllerConfig` as JSON.
 //!
 //! Loading never panics: unknown fields, wrong types and invalid values are
@@ -505,6 +506,7 @@ impl ScenarioNd {
             domain: vec![],
             material: vec![],
         };
+        let mut seen: std::collections::HashMap<Vec<u64>, usize> = Default::default();
         for (b, body) in bodies.iter().enumerate() {
             let field = format!("particles.bodies[{b}]");
             let k: [usize; D] =
@@ -550,18 +552,34 @@ impl ScenarioNd {
                 _ => return Err(invalid(&field, "give exactly one of box, ball")),
             };
             let layout = ParticlesNd::uniform(grid, k, density, material);
-            let before = out.len();
+            let mut added = 0;
             for p in 0..layout.len() {
-                if inside(&layout.x[p]) {
-                    out.x.push(layout.x[p]);
-                    out.v.push(velocity);
-                    out.mass.push(layout.mass[p]);
-                    out.volume.push(layout.volume[p]);
-                    out.domain.push(layout.domain[p]);
-                    out.material.push(material);
+                if !inside(&layout.x[p]) {
+                    continue;
                 }
+                added += 1;
+                let key: Vec<u64> = layout.x[p].iter().map(|c| c.to_bits()).collect();
+                // A later body replaces an earlier one's particle at the same lattice point.
+                let slot = match seen.get(&key) {
+                    Some(&i) => i,
+                    None => {
+                        seen.insert(key, out.x.len());
+                        out.x.push(layout.x[p]);
+                        out.v.push(velocity);
+                        out.mass.push(0.0);
+                        out.volume.push(0.0);
+                        out.domain.push(layout.domain[p]);
+                        out.material.push(material);
+                        out.x.len() - 1
+                    }
+                };
+                out.v[slot] = velocity;
+                out.mass[slot] = layout.mass[p];
+                out.volume[slot] = layout.volume[p];
+                out.domain[slot] = layout.domain[p];
+                out.material[slot] = material;
             }
-            if out.len() == before {
+            if added == 0 {
                 return Err(invalid(&field, "contains no particle"));
             }
         }
