@@ -162,7 +162,7 @@ fn run(args: &Args) -> Result<Value, Box<dyn std::error::Error>> {
     tracing::info!(?dt_full, "full map");
     // The limits as `Controller::standard` builds them from the scenario's config.
     let config = scenario.controller_config()?;
-    let p_stab = match config.stability.clone() {
+    let p_stab = match config.stability {
         Some(c) => Stability::new(c)?.propose(&view)?,
         None => mpm_dt::Proposal::no_opinion(),
     };
