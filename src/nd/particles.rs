@@ -109,17 +109,17 @@ impl<const D: usize> ParticlesNd<D> {
                 if !x.is_finite() {
                     return Err(bad("x", x));
                 }
-                if grid.boundary[a] == Boundary::Fixed {
-                    let lo = grid.origin[a];
-                    let hi = lo + grid.length(a);
-                    if !(lo..=hi).contains(&x) {
-                        return Err(SetupNdError::OutsideBox {
-                            index: p,
-                            axis: a,
-                            x,
-                        });
-                    }
+                if grid.boundary[a] == Boundary::Fixed
+                    && !(grid.origin[a]..=grid.origin[a] + grid.length(a)).contains(&x)
+                {
+                    return Err(SetupNdError::OutsideBox {
+                        index: p,
+                        axis: a,
+                        x,
+                    });
                 }
+            }
+            for a in 0..D {
                 if !self.v[p][a].is_finite() {
                     return Err(bad("v", self.v[p][a]));
                 }

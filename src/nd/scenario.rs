@@ -16,7 +16,7 @@
 //! or a list of `dim`. `particles` is `{"per_cell": k}`, explicit
 //! `{"positions": [[…], …], "masses", "volumes", "domain_lengths", "youngs_modulus"}`
 //! (masses default to `ρ·volume`, volumes to the box volume shared equally, domain lengths
-//! to `volume^(1/d)` per axis, moduli to the scenario's), or
+//! to `volume^(1/d)` per axis but at most a cell, moduli to the scenario's), or
 //! `{"bodies": [{"box": {"min", "max"}} | {"ball": {"center", "radius"}}, "per_cell",
 //! "velocity", optional "density", "youngs_modulus", "poisson_ratio"]}` — the cell-uniform
 //! points inside each body; where bodies of the same `per_cell` overlap, the later body's
@@ -476,9 +476,11 @@ impl ScenarioNd {
                     .iter()
                     .map(|l| vector::<D>(l, "particles.domain_lengths"))
                     .collect::<Result<Vec<_>, _>>()?,
+                // volume^(1/d) per axis, at most one cell (a GIMP domain longer than a cell
+                // is not supported).
                 None => volume
                     .iter()
-                    .map(|v| Vector::<D>::repeat(v.powf(1.0 / D as f64)))
+                    .map(|v| Vector::<D>::from_fn(|a, _| v.powf(1.0 / D as f64).min(grid.h[a])))
                     .collect(),
             };
             let material = match &spec.youngs_modulus {
