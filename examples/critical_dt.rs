@@ -1,4 +1,4 @@
-//! Critical time steps of one scenario, every way this crate knows (DESIGN.md contract).
+//! Critical time steps of one scenario, every way this crate knows (docs/design.md contract).
 //!
 //! ```sh
 //! cargo run --release --example critical_dt -- --scenario FILE [--json] [--amplitude A]

@@ -13,7 +13,7 @@
 //! if present, is the [`mpm_dt::controller::ControllerConfig`]. Logs go to stderr: human-readable by default, one JSON object per
 //! event with `--log-json` (an INFO event per attempted step with its decision; `RUST_LOG`
 //! filters, default `info`; `RUST_LOG=debug` adds each limit's proposal and the full
-//! decision). `--json` prints one summary document on stdout (DESIGN.md keys plus
+//! decision). `--json` prints one summary document on stdout (docs/design.md keys plus
 //! `rejected_by_cause`, `growth_events`, `safety_scale`, `velocity_error_linf_raw`,
 //! `closing_half_step`). `--plot FILE.svg` draws dt against t with each limit's proposal and
 //! the rejected attempts marked.

@@ -6,7 +6,7 @@
 //! through `StepLimit::scale_safety`), plus the default temporal error limit and growth
 //! monitor (`Controller::with_default_limits(ControllerConfig::default(), …)`).
 //!
-//! Empirical critical step: `mpm_dt::stability::Protocol` (DESIGN.md: `v = A c sin 2πx` plus
+//! Empirical critical step: `mpm_dt::stability::Protocol` (docs/design.md: `v = A c sin 2πx` plus
 //! 10⁻⁶ noise, 4000 steps, unstable when the energy exceeds 10× its start or a step fails)
 //! on the same layout at the same `A`. To keep its cost down with 1024 particles the
 //! bisection starts from the bracket `[dt₅₆, 1.2 dt₅₆]` (`dt₅₆` of the initial state; the

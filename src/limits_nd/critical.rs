@@ -1,4 +1,4 @@
-//! Critical steps of a d-dimensional layout, for verification (DESIGN "Contracts for any
+//! Critical steps of a d-dimensional layout, for verification (docs/design.md, "Contracts for any
 //! dimension", `critical_dt`).
 //!
 //! * `dt_sound = min_a h_a / max_p c_p` — the speed-of-sound step at rest;
@@ -87,7 +87,7 @@ where
             .filter(|_| view.n_particles() * view.weights.width() <= EMPIRICAL_LIMIT)
             .map(|(a, steps)| {
                 // The true limit is a few per cent above dt_eq56 on GIMP and linear layouts
-                // (DESIGN); the bracket widens itself when it is not.
+                // (docs/design.md); the bracket widens itself when it is not.
                 let guess = (2.0 / lambda).sqrt();
                 empirical_critical(solver, a, steps, 0.95 * guess, 1.25 * guess, 9)
             }),

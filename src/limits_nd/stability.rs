@@ -27,7 +27,7 @@
 //! Between refreshes the proposal is for a state within `refresh_cells` of the analysed
 //! one; it is not a certificate (the 1D tracker's `LDLᵀ` certificate is not carried over
 //! yet). Frozen-particle analysis itself overestimates the true limit when particles move
-//! (DESIGN: with quadratic B-splines by about a fifth). The controller's growth monitor
+//! (docs/design.md: with quadratic B-splines by about a fifth). The controller's growth monitor
 //! ([`super::GrowthNd`]) is the guard that catches both: it rejects a step whose energy
 //! grows and lowers this limit's safety for the rest of the run
 //! ([`StepLimit::scale_safety`]).

@@ -1,7 +1,7 @@
 //! The eq 56 operator in d dimensions and its largest eigenvalue.
 //!
 //! Eq 56 says the stress part of the USL step amplifies a perturbation by `I − dt² M⁻¹K`
-//! (in 1D `I − E dt²/h² D*F`). In d dimensions (DESIGN "Stability in d dimensions") `K` is
+//! (in 1D `I − E dt²/h² D*F`). In d dimensions (docs/design.md, "Stability in d dimensions") `K` is
 //! the nodal stiffness on the `d·n_nodes` nodal velocity space,
 //!
 //! ```text

@@ -3,7 +3,7 @@
 //! It solves the model problem of eqs 1–2, `Du/Dt = v`, `ρ Dv/Dt = ∂σ/∂x`, on a periodic
 //! or clamped bar with particles anywhere in the domain, GIMP or linear-hat weights
 //! ([`crate::shape`]), and a linear elastic or 1D neo-Hookean [`Material`]. One step, as we
-//! read eqs 17–29 (DESIGN.md), is
+//! read eqs 17–29 (docs/design.md), is
 //!
 //! ```text
 //! v_iⁿ⁺¹ = v_i + dt a_i                                      (19)

@@ -14,7 +14,7 @@ use serde::{Deserialize, Serialize};
 /// mass over number of cells) are *inactive*: their velocity and acceleration are set to
 /// zero instead of dividing by a vanishing mass (eqs 17, 18). The fraction is tiny on
 /// purpose: only nodes that particles barely touch are dropped, so the collapse of the
-/// critical step with linear-hat weights and small nodal masses (DESIGN.md) stays visible.
+/// critical step with linear-hat weights and small nodal masses (docs/design.md) stays visible.
 pub const INACTIVE_MASS_FRACTION: f64 = 1e-12;
 
 /// Everything needed to continue a run of the [`ReferenceStepper`] bit for bit: the

@@ -68,7 +68,7 @@ pub(super) fn compute_weights<const D: usize>(
     Ok(())
 }
 
-/// Particle → grid at one state (DESIGN "USL step in d dimensions"):
+/// Particle → grid at one state (docs/design.md, "USL step in d dimensions"):
 /// `m_i = Σ S m_p`, `v_i = Σ S m_p v_p / m_i`,
 /// `a_i = (−Σ V_p σ_p ∇S_ip)/m_i + g` with `V_p = det(F_p) V⁰_p`; nodes that are
 /// constrained or have `m_i ≤ threshold` are inactive, with `v_i = a_i = 0`.

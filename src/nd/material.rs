@@ -1,7 +1,7 @@
 //! Constitutive models of the d-dimensional reference solver.
 //!
 //! * [`MaterialNd::LinearElastic`]: hypoelastic linear elasticity,
-//!   `σ ← σ + dt (λ tr(ε̇) I + 2μ ε̇)`, `ε̇ = sym(L)`, no objective rate (DESIGN: "the USL
+//!   `σ ← σ + dt (λ tr(ε̇) I + 2μ ε̇)`, `ε̇ = sym(L)`, no objective rate (docs/design.md: "the USL
 //!   step in d dimensions"); with `ν = 0` and `d = 1` it is the 1D rate law of eq 27.
 //! * [`MaterialNd::NeoHookean`]: compressible neo-Hookean, evaluated from `F` directly:
 //!   `σ = (μ/J)(F Fᵀ − I) + (λ/J) ln J · I`, stored energy per reference volume

@@ -13,7 +13,7 @@
 //! `c = c_p = √((λ + 2μ)/ρ)`) or `d̂ ⊥ K` (an S wave, `c = c_s = √(μ/ρ)`): substituting,
 //! `∇·σ = −(A c/ω) sin(K·x) sin(ωt) [(λ + μ)(d̂·K) K + μ |K|² d̂]`, which is
 //! `−ρ A c ω sin(K·x) sin(ωt) d̂` in both cases. At `t = 0`: `v = A c sin(K·x) d̂`, `σ = 0`,
-//! `F = I` (DESIGN's `plane_wave` initial condition).
+//! `F = I` (docs/design.md's `plane_wave` initial condition).
 
 use super::{GridNd, MaterialNd, Tensor, Vector};
 use crate::grid::Boundary;

@@ -1,6 +1,6 @@
 //! [`SolverNd`]: the reference d-dimensional update-stress-last solver (D = 2, 3).
 //!
-//! One step from a committed state whose weights and nodal fields are known (DESIGN "The
+//! One step from a committed state whose weights and nodal fields are known (docs/design.md, "The
 //! USL step in d dimensions"): `v_iⁿ⁺¹ = v_i + dt a_i`; grid → particle
 //! ([`super::kernels`]); then, at the new positions, the weights and the particle → grid
 //! pass that the *next* step starts from. A step therefore costs one particle → grid and

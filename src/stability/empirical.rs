@@ -1,6 +1,6 @@
 //! The empirical critical step: bisection on real nonlinear runs of the reference solver.
 //!
-//! The protocol is DESIGN.md's `critical_dt` contract. From a particle layout (positions,
+//! The protocol is docs/design.md's `critical_dt` contract. From a particle layout (positions,
 //! volumes, masses, widths), one run with step `dt`:
 //!
 //! * starts from `v_p = A c sin(2π x_p/L) + η_p`, `σ = 0`, `F = 1`, with `c` the largest

@@ -1,7 +1,7 @@
 //! The exact frozen-particle critical step of the whole USL method.
 //!
 //! Freeze the weights `S`, `D`, the volumes `V_p`, the moduli `E_p` and the nodal masses of a
-//! state, and linearise the update-stress-last step (eqs 17–29 as read in DESIGN.md) in the
+//! state, and linearise the update-stress-last step (eqs 17–29 as read in docs/design.md) in the
 //! particle state `z = (v_p, σ_p)`. Every stage is linear:
 //!
 //! ```text

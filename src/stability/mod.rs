@@ -12,7 +12,7 @@
 //! | [`certified`] | the [`CertifiedTracker`]: a rigorous upper bound at every step | eq 56 |
 //! | [`mod@bound58`] | the eq 58 "lower bound" on the amplification-matrix norm | eqs 33, 57, 58 |
 //! | [`full_map`] | the exact frozen-particle critical step of the whole USL map | eqs 17–29 linearised |
-//! | [`empirical`] | the critical step found by bisection on real nonlinear runs | DESIGN.md `critical_dt` |
+//! | [`empirical`] | the critical step found by bisection on real nonlinear runs | docs/design.md `critical_dt` |
 //! | [`limit`] | the [`Stability`] step limit: `safety·dt_eq56`, rejecting on eq 58 | eqs 56, 58 |
 //!
 //! # The governing equation (eq 56), generalised to per-particle moduli
@@ -50,7 +50,7 @@
 //! so the update never uses their acceleration and they carry no stress perturbation back to
 //! the particles. `View::node_active` is false for both.
 //!
-//! # What is known (see DESIGN.md) and what the tests here show
+//! # What is known (see docs/design.md) and what the tests here show
 //!
 //! * eq 49 (`E dt²/h² ≤ 1`, i.e. `dt ≤ h/c`) is **not** stable for this method;
 //! * eq 56 ignores the velocity half of the state: exact for one particle per cell,
