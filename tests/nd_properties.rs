@@ -134,8 +134,8 @@ fn build_error(json: &str) -> ScenarioNdError {
         Err(e) => return e,
     };
     match s.dim {
-        3 => s.build::<3>().err().expect("an error"),
-        _ => s.build::<2>().err().expect("an error"),
+        3 => s.build::<3>().expect_err("an error"),
+        _ => s.build::<2>().expect_err("an error"),
     }
 }
 

@@ -1,0 +1,70 @@
+//! One bare step (`try_step` + `accept`) of the d-dimensional reference solver: periodic
+//! box, 2 particles per cell per axis, GIMP and quadratic B-splines, 10⁴ … 10⁶ particles in
+//! 2D and 3D. Throughput is in particles: criterion reports particle-steps per second.
+
+use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use mpm_dt::nd::{GridNd, MaterialNd, ParticlesNd, ShapeNd, SolverNd, Vector};
+use mpm_dt::{Boundary, Dim, Dimension, Stepper, ViewNd};
+use std::hint::black_box;
+
+fn solver<const D: usize>(cells: usize, shape: ShapeNd) -> SolverNd<D> {
+    let grid = GridNd::<D>::new([Boundary::Periodic; D], [cells; D], [1.0; D]);
+    let material = MaterialNd::LinearElastic {
+        youngs_modulus: 1.0,
+        poisson_ratio: 0.3,
+    };
+    let mut particles = ParticlesNd::uniform(&grid, [2; D], 1.0, material);
+    for p in 0..particles.len() {
+        particles.v[p][0] = 1e-3 * (2.0 * std::f64::consts::PI * particles.x[p][0]).sin();
+    }
+    match SolverNd::new(grid, shape, particles, Vector::<D>::zeros()) {
+        Ok(s) => s,
+        Err(e) => panic!("bench set-up failed: {e}"),
+    }
+}
+
+fn bench<const D: usize>(c: &mut Criterion, cells: &[usize])
+where
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+{
+    let mut group = c.benchmark_group(format!("step_{D}d"));
+    group.sample_size(10);
+    for shape in [ShapeNd::Gimp, ShapeNd::BSpline2] {
+        for &n in cells {
+            let mut s = solver::<D>(n, shape);
+            let particles = s.n_particles();
+            // Half the sound-speed step h/c_p: stable for both shapes.
+            let dt = 0.5 * s.grid().h_min()
+                / MaterialNd::LinearElastic {
+                    youngs_modulus: 1.0,
+                    poisson_ratio: 0.3,
+                }
+                .p_modulus()
+                .sqrt();
+            group.throughput(Throughput::Elements(particles as u64));
+            group.bench_with_input(
+                BenchmarkId::new(format!("{shape:?}"), particles),
+                &dt,
+                |b, &dt| {
+                    b.iter(|| {
+                        if let Err(e) = s.try_step(black_box(dt)) {
+                            panic!("step failed: {e}");
+                        }
+                        let _ = s.accept();
+                    })
+                },
+            );
+        }
+    }
+    group.finish();
+}
+
+fn bench_steps(c: &mut Criterion) {
+    // 2D: 50², 158², 500² cells × 4 ≈ 10⁴, 10⁵, 10⁶ particles.
+    bench::<2>(c, &[50, 158, 500]);
+    // 3D: 11³, 23³, 50³ cells × 8 ≈ 10⁴, 10⁵, 10⁶ particles.
+    bench::<3>(c, &[11, 23, 50]);
+}
+
+criterion_group!(benches, bench_steps);
+criterion_main!(benches);
