@@ -54,6 +54,7 @@ pub mod fmt_num;
 pub mod grid;
 pub mod limit;
 pub mod limits_nd;
+pub mod memory;
 pub mod mpm;
 pub mod nd;
 pub mod nodal_stiffness;

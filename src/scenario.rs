@@ -373,6 +373,11 @@ impl Scenario {
                 xs.len()
             }
         };
+        // Solver, controller and tracker memory, estimated generously: two particle states
+        // and the weights (~200 B a particle), nodal fields and the tracker's vectors
+        // (~1 kB a node).
+        let bytes = 400.0 * n as f64 + 1000.0 * self.cells as f64;
+        crate::memory::check(bytes).map_err(|reason| invalid("particles", reason))?;
         if let Some(ms) = &self.particles.masses {
             if ms.len() != n {
                 return Err(invalid(

@@ -144,3 +144,15 @@ fn simulate_fixed_dt_reports_the_full_state() {
     assert_eq!(state["F"][0][0].as_array().unwrap().len(), 2);
     assert_eq!(v["steps_accepted"], 3);
 }
+
+#[test]
+fn a_size_that_cannot_be_allocated_is_refused_up_front() {
+    let path = scenario_file(
+        "huge.json",
+        r#"{"cells": 3, "particles": {"per_cell": 333333333}}"#,
+    );
+    let out = run("vibrating_bar", &["--scenario", path.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("GiB"), "{err}");
+}

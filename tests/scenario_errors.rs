@@ -291,8 +291,26 @@ fn shipped_scenario_files_parse_and_build() {
             if path.is_dir() {
                 dirs.push(path);
             } else if path.extension().is_some_and(|e| e == "json") {
-                let s = Scenario::from_file(&path).unwrap_or_else(|e| panic!("{path:?}: {e}"));
-                s.build().unwrap_or_else(|e| panic!("{path:?}: {e}"));
+                // Scenarios of any dimension: `dim` 2 or 3 use the d-dimensional format.
+                let text = std::fs::read_to_string(&path).unwrap();
+                match mpm_dt::nd::scenario::ScenarioNd::dim_of(&text) {
+                    Ok(1) => {
+                        let s =
+                            Scenario::from_file(&path).unwrap_or_else(|e| panic!("{path:?}: {e}"));
+                        s.build().unwrap_or_else(|e| panic!("{path:?}: {e}"));
+                    }
+                    Ok(d) => {
+                        let s = mpm_dt::nd::scenario::ScenarioNd::from_json(&text)
+                            .unwrap_or_else(|e| panic!("{path:?}: {e}"));
+                        let built = if d == 2 {
+                            s.build::<2>().map(|_| ())
+                        } else {
+                            s.build::<3>().map(|_| ())
+                        };
+                        built.unwrap_or_else(|e| panic!("{path:?}: {e}"));
+                    }
+                    Err(e) => panic!("{path:?}: {e}"),
+                }
                 count += 1;
             }
         }
