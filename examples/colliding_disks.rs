@@ -103,7 +103,8 @@ where
             h.error = Some(e.to_string());
             break;
         }
-        if !(s.total_energy() <= 10.0 * e0) {
+        let e = s.total_energy();
+        if e.is_nan() || e > 10.0 * e0 {
             h.error = Some(format!("energy above 10x its start at t = {}", s.time()));
             break;
         }
