@@ -210,9 +210,18 @@ where
     let mut controller = Controller::<D>::new(config, limits).map_err(|e| e.to_string())?;
     let start = Instant::now();
     let mut last_rejection = None;
+    let mut refreshes = (0.0, 0.0);
     let run = controller.run_until(&mut s, scenario.t_end, &mut |d| {
         if d.outcome == mpm_dt::controller::Outcome::Rejected {
             last_rejection = Some(d.clone());
+        }
+        for l in &d.limits {
+            if let (Some(&r), Some(&a)) = (
+                l.metrics.get("refreshes"),
+                l.metrics.get("lanczos_applications"),
+            ) {
+                refreshes = (r, a);
+            }
         }
     });
     let wall = start.elapsed().as_secs_f64();
@@ -238,6 +247,8 @@ where
     out["energy_final"] = json!(e);
     out["wall_s"] = json!(wall);
     out["error"] = json!(error);
+    out["stability_refreshes"] = json!(refreshes.0);
+    out["lanczos_applications"] = json!(refreshes.1);
     if args.compare {
         let mut rules = Vec::new();
         for alpha in [0.4, 0.5] {

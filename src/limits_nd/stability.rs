@@ -56,7 +56,7 @@ pub struct StabilityNdConfig {
     /// Refresh at least every this many proposals (default 200).
     pub max_age: u32,
     /// Lanczos tolerance (default 1e-2): residual below `tol·λ` or the value settled to
-    /// `tol²·λ`; the Ritz value is raised by this fraction.
+    /// `tol·λ/10` in one iteration; the Ritz value is raised by this fraction.
     pub tol: f64,
     /// Lanczos products per refresh at most (default 40).
     pub max_iter: usize,

@@ -104,7 +104,7 @@ pub struct LanczosResult {
 
 /// Lanczos with full reorthogonalisation for `λmax(A)`, from `start` (any non-zero vector;
 /// a previous Ritz vector makes it fast). Stops when the residual bound of the largest Ritz
-/// value is below `tol · λ`, or when the Ritz value changed by less than `tol² · λ` in one
+/// value is below `tol · λ`, or when the Ritz value changed by less than `tol · λ / 10` in one
 /// iteration (it converges much faster than the vector when the top of the spectrum is a
 /// cluster, as on uniform layouts), or after `max_iter` products.
 pub fn lanczos<const D: usize>(
@@ -154,7 +154,7 @@ pub fn lanczos<const D: usize>(
         let (theta, y) = tridiagonal_top(&alpha, &beta);
         let residual = bnorm * y.last().copied().unwrap_or(0.0).abs();
         let vector = ritz(&basis, &y);
-        let settled = (theta - best.0).abs() <= tol * tol * theta.abs();
+        let settled = (theta - best.0).abs() <= 0.1 * tol * theta.abs();
         best = (theta, residual, vector);
         if residual <= tol * theta.abs()
             || (k >= 2 && settled)

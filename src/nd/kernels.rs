@@ -38,17 +38,14 @@ pub(super) fn compute_weights<const D: usize>(
             }
         }
         let base = p * width;
+        // Walk the stencil's nodes as an odometer over the axes (axis 0 fastest), with no
+        // integer division in the loop.
+        let mut ks = [0usize; D];
         for m in 0..width {
-            let mut rest = m;
             let mut node = 0;
-            let mut ks = [0usize; D];
-            for a in 0..D {
-                ks[a] = rest % n_axis;
-                rest /= n_axis;
-                node += idx[a][ks[a]];
-            }
             let mut w = 1.0;
             for a in 0..D {
+                node += idx[a][ks[a]];
                 w *= st[a].s[ks[a]];
             }
             let g = Vector::<D>::from_fn(|a, _| {
@@ -63,6 +60,13 @@ pub(super) fn compute_weights<const D: usize>(
             nodes[base + m] = node as u32;
             s[base + m] = w;
             grad[base + m] = g;
+            for k in ks.iter_mut() {
+                *k += 1;
+                if *k < n_axis {
+                    break;
+                }
+                *k = 0;
+            }
         }
     }
     Ok(())
