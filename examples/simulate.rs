@@ -133,6 +133,12 @@ where
     json!({"x": vecs(view.x), "v": vecs(view.v), "sigma": mats(view.sigma), "F": mats(view.f)})
 }
 
+/// Whether the energy is non-finite or above 10× `e0`.
+fn energy_grew<const D: usize>(s: &SolverNd<D>, e0: f64) -> bool {
+    let e = s.total_energy();
+    !e.is_finite() || e > 10.0 * e0.max(f64::MIN_POSITIVE)
+}
+
 /// A fixed-rule run `dt = α · min_a h_a/(c_p + |v_a|)` to `t_end`: (steps, wall, blew up).
 fn run_alpha<const D: usize>(
     mut s: SolverNd<D>,
@@ -158,12 +164,14 @@ where
             blew_up = true;
             break;
         }
-        let e = s.total_energy();
-        if !e.is_finite() || e > 10.0 * e0.max(f64::MIN_POSITIVE) {
+        // What a fixed-rule code pays per step is the rule itself; the energy check (not
+        // part of the rule) runs every 50 steps and at the end.
+        if s.step_count() % 50 == 0 && energy_grew(&s, e0) {
             blew_up = true;
             break;
         }
     }
+    blew_up |= energy_grew(&s, e0);
     (s.step_count(), start.elapsed().as_secs_f64(), blew_up, s)
 }
 
