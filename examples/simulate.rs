@@ -133,6 +133,19 @@ where
     json!({"x": vecs(view.x), "v": vecs(view.v), "sigma": mats(view.sigma), "F": mats(view.f)})
 }
 
+/// `k` plain steps of `dt` (no controller); the first failure's message, if any.
+fn fixed_steps<const D: usize>(s: &mut dyn Stepper<D>, dt: f64, k: u64) -> Option<String>
+where
+    Dim<D>: Dimension,
+{
+    for _ in 0..k {
+        if let Err(e) = s.try_step(dt).and_then(|_| s.accept()) {
+            return Some(e.to_string());
+        }
+    }
+    None
+}
+
 /// Whether the energy is non-finite or above 10× `e0`.
 fn energy_grew<const D: usize>(s: &SolverNd<D>, e0: f64) -> bool {
     let e = s.total_energy();
@@ -190,13 +203,7 @@ where
     );
     eprintln!("simulate: {describe}, t_end = {}", scenario.t_end);
     if let Some((dt, k)) = args.fixed {
-        let mut error = None;
-        for _ in 0..k {
-            if let Err(e) = s.try_step(dt).and_then(|_| s.accept()) {
-                error = Some(e.to_string());
-                break;
-            }
-        }
+        let error = fixed_steps(&mut s, dt, k);
         let e = s.total_energy();
         let blew_up = error.is_some() || !e.is_finite() || e > 10.0 * e0;
         let mut out = json!({
@@ -285,13 +292,7 @@ fn run_1d(text: &str, args: &Args) -> Result<Value, String> {
     let mut s = scenario.build().map_err(|e| e.to_string())?;
     let e0 = s.total_energy();
     if let Some((dt, k)) = args.fixed {
-        let mut error = None;
-        for _ in 0..k {
-            if let Err(e) = s.try_step(dt).and_then(|_| s.accept()) {
-                error = Some(e.to_string());
-                break;
-            }
-        }
+        let error = fixed_steps(&mut s, dt, k);
         let view = s.view();
         let e = s.total_energy();
         let one = |v: &[f64]| -> Value { v.iter().map(|x| json!([x])).collect() };
