@@ -63,10 +63,10 @@ impl<const D: usize> GrowthNd<D> {
             let (l, m) = (view.lame_lambda[p], view.lame_mu[p]);
             let s: &Tensor<D> = &view.sigma[p];
             if m > 0.0 {
-                let eps = (s - Tensor::<D>::identity()
-                    * (l * s.trace() / (2.0 * m + D as f64 * l)))
-                    / (2.0 * m);
-                ku += 0.5 * crate::nd::det(&view.f[p]) * view.volume0[p] * s.dot(&eps);
+                // ½ σ:C⁻¹σ with C⁻¹σ = (σ − λ tr σ/(2μ + dλ) I)/(2μ), contracted directly.
+                let tr = s.trace();
+                let s_c = (s.norm_squared() - l * tr * tr / (2.0 * m + D as f64 * l)) / (2.0 * m);
+                ku += 0.5 * crate::nd::det(&view.f[p]) * view.volume0[p] * s_c;
             } else if l > 0.0 {
                 let pr = s.trace() / D as f64;
                 ku += 0.5 * crate::nd::det(&view.f[p]) * view.volume0[p] * D as f64 * pr * pr

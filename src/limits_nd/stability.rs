@@ -9,13 +9,34 @@
 //!
 //! * some particle has moved more than `refresh_cells` of a cell on some axis since the
 //!   last refresh, or
-//! * the smallest active nodal mass fell by more than `refresh_mass` (relative): nearly
-//!   empty nodes set `λmax` on small-mass layouts, or
-//! * some particle's `V (λ_t + 2μ_t)` has changed by more than `refresh_modulus`
-//!   (relative), or
+//! * the smallest active nodal mass fell by more than `refresh_mass` (relative) *and* the
+//!   largest diagonal entry of `M^{-1/2} K M^{-1/2}` grew by more than `refresh_modulus`
+//!   since the refresh (below), or
+//! * some particle's moduli grew by more than `refresh_modulus` (relative, below), or
 //! * `max_age` proposals have passed, or the node count changed;
 //!
-//! and between refreshes proposes from the cached value. The per-step guard is one pass over
+//! and between refreshes proposes from the cached value, scaled for the moduli's growth.
+//!
+//! **Moduli between refreshes.** On symmetric tensors the isotropic `V_p C_p` has two
+//! eigenvalues, `V(dλ_t + 2μ_t)` (volumetric) and `2Vμ_t` (deviatoric). If each grew at
+//! most by the factor `r_p` since the refresh then `V'_p C'_p ⪯ r_p V_p C_p`, so with the
+//! weights unchanged `K' ⪯ (max_p r_p) K` in the Loewner order and
+//! `λmax(M⁻¹K') ≤ (max_p r_p) λmax(M⁻¹K)`: the cached value times `max(1, max_p r_p)` is
+//! a bound for the new moduli, exact in the frozen-weight sense. A collision, where `J`
+//! and the tangent moduli change every step, thus costs no Lanczos run until some
+//! particle's moduli grew by `refresh_modulus`; then the factor is reset by a refresh
+//! (which also wins back the step when moduli fall).
+//!
+//! **Light nodes.** Nearly empty nodes set `λmax` on linear-hat layouts: a node with mass
+//! `m_i → 0` keeps a stiffness row of order one, and the Rayleigh quotient of a unit
+//! velocity there, the diagonal entry `K_ii/m_i`, grows without bound. With GIMP and
+//! B-spline weights the stiffness row vanishes with the mass (weight gradients vanish where
+//! the weights do) and a node's mass falling as a body slides over it is harmless. So when
+//! the smallest nodal mass falls, the limit computes `max diag(A)` (one pass over the weight
+//! gradients, [`super::stiffness::diagonal_max`]): if it grew by more than
+//! `refresh_modulus`, `λmax` is recomputed; else the cached value is multiplied by that
+//! growth (≥ 1) until the next refresh — a heuristic scaling, not a bound, since the
+//! diagonal only bounds `λmax` from below. The per-step guard is one pass over
 //! the particles (positions and moduli against their values at the refresh): O(n), no
 //! weights read. A Lanczos Ritz value is a lower bound on `λmax` that converges fast; the
 //! cached value is the Ritz value times `(1 + tol)·margin` — a margin, not a rigorous bound
@@ -25,14 +46,21 @@
 //! # What this guarantees, and what it does not
 //!
 //! Between refreshes the proposal is for a state within `refresh_cells` of the analysed
-//! one; it is not a certificate (the 1D tracker's `LDLᵀ` certificate is not carried over
-//! yet). Frozen-particle analysis itself overestimates the true limit when particles move
-//! (docs/design.md: with quadratic B-splines by about a fifth). The controller's growth monitor
-//! ([`super::GrowthNd`]) is the guard that catches both: it rejects a step whose energy
-//! grows and lowers this limit's safety for the rest of the run
-//! ([`StepLimit::scale_safety`]).
+//! one; it is not a certificate (the 1D tracker's `LDLᵀ` certificate is not carried over).
+//! The frozen-particle `λmax` is a rough function of the positions: on a jittered block
+//! drifting across a periodic grid (`tests/stability_tracking_nd.rs`) the true value rose
+//! up to 1.10× (linear hat), 1.50× (GIMP) and 1.22× (B-spline) above the tracked one
+//! within half a cell of motion, and refreshing every eighth of a cell still left 1.34×
+//! with GIMP — so a step of `0.9·√(2/λ)` can exceed the frozen critical step by up to
+//! about 10 % for a few steps. A refreshed value is the Lanczos Ritz value, which is the
+//! top eigenvalue unless a new mode far from the warm start has just risen above the old
+//! one (measured: at worst 3 % low). Frozen-particle analysis itself
+//! overestimates the true limit when particles move (docs/design.md: with quadratic
+//! B-splines by about a fifth). The controller's growth monitor ([`super::GrowthNd`]) is
+//! the guard that catches all three: it rejects a step whose energy grows and lowers this
+//! limit's safety for the rest of the run ([`StepLimit::scale_safety`]).
 
-use super::stiffness::lanczos;
+use super::stiffness::{diagonal_argmax, diagonal_max, lanczos};
 use crate::dimension::{Dim, Dimension};
 use crate::limit::{LimitError, Metrics, Proposal, StepLimit};
 use crate::nd::{Vector, ViewNd};
@@ -51,7 +79,8 @@ pub struct StabilityNdConfig {
     pub refresh_cells: f64,
     /// Refresh when the smallest active nodal mass fell by this much, relative (default 0.1).
     pub refresh_mass: f64,
-    /// Refresh when some `V(λ_t + 2μ_t)` changed by this much, relative (default 0.02).
+    /// Refresh when some particle's moduli grew by this much, relative (default 0.05);
+    /// smaller growth scales the cached `λmax` instead (module docs).
     pub refresh_modulus: f64,
     /// Refresh at least every this many proposals (default 200).
     pub max_age: u32,
@@ -70,7 +99,7 @@ impl Default for StabilityNdConfig {
             safety: 0.9,
             refresh_cells: 0.5,
             refresh_mass: 0.1,
-            refresh_modulus: 0.02,
+            refresh_modulus: 0.05,
             max_age: 200,
             tol: 1e-2,
             max_iter: 40,
@@ -87,9 +116,14 @@ pub struct StabilityNd<const D: usize> {
     lambda: Option<f64>,
     ritz: Vec<f64>,
     x_ref: Vec<Vector<D>>,
-    stiff_ref: Vec<f64>,
+    /// `(V(dλ_t + 2μ_t), Vμ_t)` per particle at the refresh.
+    moduli_ref: Vec<(f64, f64)>,
     /// Smallest active nodal mass and active node count at the refresh.
     mass_ref: (f64, usize),
+    /// `max diag(A)` at the refresh ([`super::stiffness::diagonal_max`]).
+    diag_ref: f64,
+    /// Growth of `max diag(A)` accepted without a refresh since the last one (≥ 1).
+    diag_growth: f64,
     age: u32,
     refreshes: u64,
     applications: u64,
@@ -104,8 +138,10 @@ impl<const D: usize> StabilityNd<D> {
             lambda: None,
             ritz: Vec::new(),
             x_ref: Vec::new(),
-            stiff_ref: Vec::new(),
+            moduli_ref: Vec::new(),
             mass_ref: (0.0, 0),
+            diag_ref: 0.0,
+            diag_growth: 1.0,
             age: 0,
             refreshes: 0,
             applications: 0,
@@ -122,8 +158,13 @@ impl<const D: usize> StabilityNd<D> {
         self.refreshes
     }
 
-    fn stiffness(view: &ViewNd<'_, D>, p: usize) -> f64 {
-        crate::nd::det(&view.f[p]) * view.volume0[p] * (view.lame_lambda[p] + 2.0 * view.lame_mu[p])
+    /// The two eigenvalues of `V_p C_p` on symmetric tensors: `V(dλ_t + 2μ_t)` (volumetric)
+    /// and `2Vμ_t` (deviatoric), the latter stored halved as `Vμ_t`.
+    #[inline]
+    fn moduli(view: &ViewNd<'_, D>, p: usize) -> (f64, f64) {
+        let vol = crate::nd::det(&view.f[p]) * view.volume0[p];
+        let (l, m) = (view.lame_lambda[p], view.lame_mu[p]);
+        (vol * (D as f64 * l + 2.0 * m), vol * m)
     }
 
     /// Smallest active nodal mass and the number of active nodes.
@@ -135,50 +176,96 @@ impl<const D: usize> StabilityNd<D> {
             .fold((f64::INFINITY, 0), |(m, n), (&mi, _)| (m.min(mi), n + 1))
     }
 
-    fn stale(&self, view: &ViewNd<'_, D>) -> bool {
+    /// `None` when the cached `λmax` must be recomputed, else the factor `r ≥ 1` it is
+    /// multiplied by for the moduli's growth since the refresh (module docs).
+    fn staleness(&mut self, view: &ViewNd<'_, D>) -> Option<f64> {
         if self.lambda.is_none()
             || self.age >= self.config.max_age
             || self.x_ref.len() != view.n_particles()
             || self.ritz.len() != view.n_nodes() * D
         {
-            return true;
+            return None;
         }
         let (m_min, active) = Self::node_mass_summary(view);
-        if active == 0 || m_min < (1.0 - self.config.refresh_mass) * self.mass_ref.0 {
-            return true;
+        let growth_limit = 1.0 + self.config.refresh_modulus;
+        if active == 0 {
+            return None;
         }
-        let h = view.grid.h;
+        if m_min < (1.0 - self.config.refresh_mass) * self.mass_ref.0 {
+            // A lighter node: refresh only if some node's diagonal of A grew (module docs).
+            let d = diagonal_max(view);
+            let growth = d / self.diag_ref;
+            if growth.is_nan() || growth > growth_limit {
+                return None;
+            }
+            self.diag_growth = self.diag_growth.max(growth);
+            self.mass_ref.0 = m_min;
+        }
+        let grid = view.grid;
+        let h = grid.h;
         let lim = self.config.refresh_cells;
+        // On a periodic axis a particle that wrapped around shows a jump of one box length:
+        // its displacement is taken modulo the box.
+        let period: [f64; D] = std::array::from_fn(|a| match grid.boundary[a] {
+            crate::Boundary::Periodic => grid.length(a),
+            _ => f64::INFINITY,
+        });
+        let mut growth: f64 = 1.0;
         for p in 0..view.n_particles() {
             let dx = view.x[p] - self.x_ref[p];
             for a in 0..D {
-                // A periodic wrap shows as a jump of a whole box: also a refresh.
-                if dx[a].abs() > lim * h[a] {
-                    return true;
+                if dx[a].abs() <= lim * h[a] {
+                    continue;
+                }
+                let d = if period[a].is_finite() {
+                    dx[a] - period[a] * (dx[a] / period[a]).round()
+                } else {
+                    dx[a]
+                };
+                if d.is_nan() || d.abs() > lim * h[a] {
+                    return None;
                 }
             }
-            let s = Self::stiffness(view, p);
-            if (s - self.stiff_ref[p]).abs() > self.config.refresh_modulus * self.stiff_ref[p] {
-                return true;
+            let (bulk, shear) = Self::moduli(view, p);
+            let (bulk_ref, shear_ref) = self.moduli_ref[p];
+            let r_bulk = bulk / bulk_ref;
+            let r_shear = if shear_ref > 0.0 {
+                shear / shear_ref
+            } else if shear > 0.0 {
+                f64::INFINITY
+            } else {
+                0.0
+            };
+            let r = r_bulk.max(r_shear);
+            // NaN (a non-finite modulus) forces a refresh.
+            if r.is_nan() || r > growth_limit {
+                return None;
             }
+            growth = growth.max(r);
         }
-        false
+        Some(growth.max(self.diag_growth))
     }
 
     fn refresh(&mut self, view: &ViewNd<'_, D>) -> Result<f64, LimitError> {
         let n = view.n_nodes() * D;
-        let start: Vec<f64> = if self.ritz.len() == n {
+        let (diag_max, diag_at) = diagonal_argmax(view);
+        let mut start: Vec<f64> = if self.ritz.len() == n {
             // Warm start, nudged so that it is never orthogonal to a new top mode.
             self.ritz
                 .iter()
                 .enumerate()
-                .map(|(i, v)| {
-                    v + 1e-3 * (((i * 7919) % 97) as f64 / 97.0 - 0.5) / (n as f64).sqrt()
-                })
+                .map(|(i, v)| v + 0.1 * (((i * 7919) % 97) as f64 / 97.0 - 0.5) / (n as f64).sqrt())
                 .collect()
         } else {
             checkerboard_start(view)
         };
+        // Plus the unit velocity at the stiffest node for its mass: a mode localised on a
+        // light node, far from the previous top mode, is then in the Krylov space from the
+        // first product.
+        let scale = dot_norm(&start);
+        if diag_at < n && scale > 0.0 {
+            start[diag_at] += scale;
+        }
         let r = lanczos(view, &start, self.config.tol, self.config.max_iter);
         let lambda = r.lambda * (1.0 + self.config.tol) * self.config.margin;
         if !(lambda.is_finite() && lambda > 0.0) {
@@ -192,16 +279,23 @@ impl<const D: usize> StabilityNd<D> {
         }
         self.ritz = r.vector;
         self.x_ref = view.x.to_vec();
-        self.stiff_ref = (0..view.n_particles())
-            .map(|p| Self::stiffness(view, p))
+        self.moduli_ref = (0..view.n_particles())
+            .map(|p| Self::moduli(view, p))
             .collect();
         self.mass_ref = Self::node_mass_summary(view);
+        self.diag_ref = diag_max;
+        self.diag_growth = 1.0;
         self.age = 0;
         self.refreshes += 1;
         self.applications += r.applications as u64;
         self.lambda = Some(lambda);
         Ok(lambda)
     }
+}
+
+/// Euclidean norm.
+fn dot_norm(v: &[f64]) -> f64 {
+    v.iter().map(|x| x * x).sum::<f64>().sqrt()
 }
 
 /// A cold start close to the top of the spectrum: the nodal checkerboard
@@ -235,13 +329,14 @@ where
 
     fn propose(&mut self, state: &ViewNd<'_, D>) -> Result<Proposal, LimitError> {
         let mut metrics = Metrics::new();
-        let lambda = if self.stale(state) {
-            let l = self.refresh(state)?;
-            metrics.insert("refreshes".into(), self.refreshes as f64);
-            metrics.insert("lanczos_applications".into(), self.applications as f64);
-            l
-        } else {
-            self.lambda.unwrap_or(f64::INFINITY)
+        let lambda = match (self.staleness(state), self.lambda) {
+            (Some(growth), Some(cached)) => cached * growth,
+            _ => {
+                let l = self.refresh(state)?;
+                metrics.insert("refreshes".into(), self.refreshes as f64);
+                metrics.insert("lanczos_applications".into(), self.applications as f64);
+                l
+            }
         };
         self.age += 1;
         metrics.insert(crate::controller::metric::LAMBDA_MAX.into(), lambda);

@@ -18,19 +18,32 @@
 use crate::nd::{Tensor, Vector, ViewNd};
 use faer::Mat;
 
+/// `M^{-1/2}` on the nodes: `1/√m_i` at active nodes, 0 elsewhere (inactive nodes drop out
+/// of the operator).
+pub fn inverse_sqrt_mass<const D: usize>(view: &ViewNd<'_, D>) -> Vec<f64> {
+    view.node_mass
+        .iter()
+        .zip(view.node_active)
+        .map(|(&m, &a)| if a { 1.0 / m.sqrt() } else { 0.0 })
+        .collect()
+}
+
 /// `y = A u` with `A = M^{-1/2} K M^{-1/2}` (module docs); `u`, `y` hold `D` components per
 /// node, node-major. Inactive nodes read and write zero.
 pub fn apply<const D: usize>(view: &ViewNd<'_, D>, u: &[f64], y: &mut [f64]) {
+    apply_scaled(view, &inverse_sqrt_mass(view), u, y);
+}
+
+/// [`apply`] with `M^{-1/2}` given ([`inverse_sqrt_mass`]), for repeated products.
+pub fn apply_scaled<const D: usize>(
+    view: &ViewNd<'_, D>,
+    inv_sqrt_m: &[f64],
+    u: &[f64],
+    y: &mut [f64],
+) {
     let nn = view.n_nodes();
-    debug_assert!(u.len() == nn * D && y.len() == nn * D);
+    debug_assert!(u.len() == nn * D && y.len() == nn * D && inv_sqrt_m.len() == nn);
     y.fill(0.0);
-    let inv_sqrt_m = |i: usize| {
-        if view.node_active[i] {
-            1.0 / view.node_mass[i].sqrt()
-        } else {
-            0.0
-        }
-    };
     let w = &view.weights;
     for p in 0..view.n_particles() {
         let nodes = w.nodes_of(p);
@@ -38,7 +51,7 @@ pub fn apply<const D: usize>(view: &ViewNd<'_, D>, u: &[f64], y: &mut [f64]) {
         let mut l = Tensor::<D>::zeros();
         for (&i, g) in nodes.iter().zip(grads) {
             let i = i as usize;
-            let s = inv_sqrt_m(i);
+            let s = inv_sqrt_m[i];
             if s == 0.0 {
                 continue;
             }
@@ -52,7 +65,7 @@ pub fn apply<const D: usize>(view: &ViewNd<'_, D>, u: &[f64], y: &mut [f64]) {
             * vol;
         for (&i, g) in nodes.iter().zip(grads) {
             let i = i as usize;
-            let s = inv_sqrt_m(i);
+            let s = inv_sqrt_m[i];
             if s == 0.0 {
                 continue;
             }
@@ -64,16 +77,62 @@ pub fn apply<const D: usize>(view: &ViewNd<'_, D>, u: &[f64], y: &mut [f64]) {
     }
 }
 
+/// `max_{i,a} A_(ia),(ia)`, the largest diagonal entry of `A` (module docs): the Rayleigh
+/// quotient of a unit velocity at one node, a lower bound on `λmax(A)` that carries the
+/// small-nodal-mass mechanism (a light node's row). For the isotropic `C_p`, with
+/// `g = ∇S_ip`,
+///
+/// ```text
+/// K_(ia),(ia) = Σ_p V_p [(λ_t + μ_t) g_a² + μ_t |g|²],   A_(ia),(ia) = K_(ia),(ia) / m_i.
+/// ```
+///
+/// One pass over the particles' weight gradients, about a third of an [`apply`].
+pub fn diagonal_max<const D: usize>(view: &ViewNd<'_, D>) -> f64 {
+    diagonal_argmax(view).0
+}
+
+/// [`diagonal_max`] and where it is: the index `D·i + a` of node `i`, component `a` (0 when
+/// no node is active).
+pub fn diagonal_argmax<const D: usize>(view: &ViewNd<'_, D>) -> (f64, usize) {
+    let mut diag = vec![0.0; view.n_nodes() * D];
+    let w = &view.weights;
+    for p in 0..view.n_particles() {
+        let vol = crate::nd::det(&view.f[p]) * view.volume0[p];
+        let (l, m) = (view.lame_lambda[p], view.lame_mu[p]);
+        for (&i, g) in w.nodes_of(p).iter().zip(w.grad_of(p)) {
+            let i = i as usize;
+            let g2 = g.norm_squared();
+            for a in 0..D {
+                diag[i * D + a] += vol * ((l + m) * g[a] * g[a] + m * g2);
+            }
+        }
+    }
+    let mut best: (f64, usize) = (0.0, 0);
+    for i in 0..view.n_nodes() {
+        if view.node_active[i] {
+            for a in 0..D {
+                let d = diag[i * D + a] / view.node_mass[i];
+                // A NaN is picked up and then kept, so that it propagates.
+                if d.is_nan() || (!best.0.is_nan() && d > best.0) {
+                    best = (d, i * D + a);
+                }
+            }
+        }
+    }
+    best
+}
+
 /// The dense `A` (module docs), `d·n_nodes` square, for small problems and tests.
 pub fn dense<const D: usize>(view: &ViewNd<'_, D>) -> Mat<f64> {
     let n = view.n_nodes() * D;
     let mut a = Mat::<f64>::zeros(n, n);
     let mut e = vec![0.0; n];
     let mut col = vec![0.0; n];
+    let inv_sqrt_m = inverse_sqrt_mass(view);
     for j in 0..n {
         e.fill(0.0);
         e[j] = 1.0;
-        apply(view, &e, &mut col);
+        apply_scaled(view, &inv_sqrt_m, &e, &mut col);
         for (i, &c) in col.iter().enumerate() {
             a[(i, j)] = c;
         }
@@ -104,8 +163,8 @@ pub struct LanczosResult {
 
 /// Lanczos with full reorthogonalisation for `λmax(A)`, from `start` (any non-zero vector;
 /// a previous Ritz vector makes it fast). Stops when the residual bound of the largest Ritz
-/// value is below `tol · λ`, or when the Ritz value changed by less than `tol · λ / 10` in one
-/// iteration (it converges much faster than the vector when the top of the spectrum is a
+/// value is below `tol · λ`, or when the Ritz value changed by less than `tol · λ / 10` in two
+/// iterations running (it converges much faster than the vector when the top of the spectrum is a
 /// cluster, as on uniform layouts), or after `max_iter` products.
 pub fn lanczos<const D: usize>(
     view: &ViewNd<'_, D>,
@@ -137,9 +196,13 @@ pub fn lanczos<const D: usize>(
     }
     q.iter_mut().for_each(|v| *v /= norm);
     let mut w = vec![0.0; n];
-    let mut best = (0.0, f64::INFINITY, q.clone());
+    let inv_sqrt_m = inverse_sqrt_mass(view);
+    // (Ritz value, residual bound, coordinates in the basis) of the latest iteration.
+    let mut best: (f64, f64, Vec<f64>) = (0.0, f64::INFINITY, vec![1.0]);
+    // Consecutive iterations in which the Ritz value moved by less than `tol·λ/10`.
+    let mut settled_runs = 0;
     for k in 0..max_iter.max(1) {
-        apply(view, &q, &mut w);
+        apply_scaled(view, &inv_sqrt_m, &q, &mut w);
         let a = dot(&q, &w);
         basis.push(q.clone());
         alpha.push(a);
@@ -153,11 +216,11 @@ pub fn lanczos<const D: usize>(
         let bnorm = dot(&w, &w).sqrt();
         let (theta, y) = tridiagonal_top(&alpha, &beta);
         let residual = bnorm * y.last().copied().unwrap_or(0.0).abs();
-        let vector = ritz(&basis, &y);
         let settled = (theta - best.0).abs() <= 0.1 * tol * theta.abs();
-        best = (theta, residual, vector);
+        settled_runs = if settled { settled_runs + 1 } else { 0 };
+        best = (theta, residual, y);
         if residual <= tol * theta.abs()
-            || (k >= 2 && settled)
+            || (k >= 2 && settled_runs >= 2)
             || bnorm <= 1e-14 * theta.abs()
             || k + 1 == max_iter
         {
@@ -169,7 +232,7 @@ pub fn lanczos<const D: usize>(
     LanczosResult {
         lambda: best.0,
         residual: best.1,
-        vector: best.2,
+        vector: ritz(&basis, &best.2),
         applications: alpha.len(),
     }
 }
