@@ -61,6 +61,7 @@ pub mod nodal_stiffness;
 pub mod pass_summary;
 pub mod problems;
 mod recycled;
+pub mod reduce;
 pub mod scenario;
 pub mod shape;
 pub mod stability;

@@ -59,11 +59,13 @@ pub enum RejectCause {
     NonFinite,
     /// A user-supplied limit vetoed the step.
     UserVeto,
+    /// Another process of a distributed run rejected the step ([`crate::reduce`]).
+    OtherRank,
 }
 
 impl RejectCause {
     /// The cause's name in logs (as serialized): `"error"`, `"stability"`, `"growth"`,
-    /// `"non_finite"`, `"user_veto"`.
+    /// `"non_finite"`, `"user_veto"`, `"other_rank"`.
     pub fn as_str(self) -> &'static str {
         match self {
             RejectCause::Error => "error",
@@ -71,6 +73,7 @@ impl RejectCause {
             RejectCause::Growth => "growth",
             RejectCause::NonFinite => "non_finite",
             RejectCause::UserVeto => "user_veto",
+            RejectCause::OtherRank => "other_rank",
         }
     }
 }

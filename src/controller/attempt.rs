@@ -98,16 +98,24 @@ where
             let view = stepper.view();
             let mut records = Vec::with_capacity(self.limits.len());
             let mut bounds: Vec<(BoundName, f64)> = Vec::with_capacity(self.limits.len() + 5);
+            // An error before the trial is held until the processes have agreed on the
+            // step (`crate::reduce`): every process takes part in every reduction.
+            let mut pre_error: Option<ControllerError> = None;
             for (index, limit) in self.limits.iter_mut().enumerate() {
-                let p = limit
-                    .propose(&view)
-                    .map_err(|source| ControllerError::Limit { t, source })?;
+                let p = match limit.propose(&view) {
+                    Ok(p) => p,
+                    Err(source) => {
+                        pre_error = Some(ControllerError::Limit { t, source });
+                        break;
+                    }
+                };
                 if p.dt.is_nan() || p.dt <= 0.0 {
-                    return Err(ControllerError::InvalidProposal {
+                    pre_error = Some(ControllerError::InvalidProposal {
                         limit: limit.name().to_string(),
                         dt: p.dt,
                         t,
                     });
+                    break;
                 }
                 let mut metrics = p.metrics;
                 metrics.retain(|_, v| v.is_finite());
@@ -149,8 +157,8 @@ where
             if let Some(r) = retry_cap {
                 bounds.push((BoundName::Named(bound::RETRY), r));
             }
-            if bounds.is_empty() {
-                return Err(ControllerError::NoInitialStep { t });
+            if bounds.is_empty() && pre_error.is_none() {
+                pre_error = Some(ControllerError::NoInitialStep { t });
             }
             let remaining = t_end - t;
             bounds.push((BoundName::Named(bound::T_END), remaining));
@@ -176,10 +184,28 @@ where
                     binding_of = BoundName::Named(bound::HOLD);
                 }
             }
-            let binding = match binding_of {
+            let mut binding = match binding_of {
                 BoundName::Limit(i) => self.limits[i].name().to_string(),
                 BoundName::Named(name) => name.to_string(),
             };
+            // 2c. The processes agree: the smallest step of all, or the end of the run if
+            // any of them failed.
+            let local_dt = if pre_error.is_some() {
+                f64::INFINITY
+            } else {
+                dt
+            };
+            let (global_dt, any_failed) = self.reduce.min_and_any(local_dt, pre_error.is_some());
+            if any_failed {
+                return Err(pre_error.unwrap_or(ControllerError::OtherRank {
+                    t,
+                    phase: "before its trial",
+                }));
+            }
+            if global_dt < dt {
+                dt = global_dt;
+                binding = bound::OTHER_RANK.to_string();
+            }
             while t + dt > t_end && dt > 0.0 {
                 dt = dt.next_down();
             }
@@ -202,6 +228,7 @@ where
             let mut message: Option<String> = None;
             let mut suggested: Option<f64> = None;
             let mut limit_error = None;
+            let mut fatal: Option<ControllerError> = None;
             match stepper.try_step(dt) {
                 // A smaller step can cure these; anything else (an invalid dt, no trial, a
                 // solver-specific failure) it cannot, and the run ends at once.
@@ -215,15 +242,16 @@ where
                     message = Some(e.to_string());
                 }
                 Err(e) => {
-                    return Err(ControllerError::Stepper { t, source: e });
+                    fatal = Some(ControllerError::Stepper { t, source: e });
                 }
-                Ok(()) => {
+                Ok(()) => 'trial: {
                     let before = stepper.view();
                     let Some(after) = stepper.trial_view() else {
-                        return Err(ControllerError::Stepper {
+                        fatal = Some(ControllerError::Stepper {
                             t,
                             source: StepError::NoTrial,
                         });
+                        break 'trial;
                     };
                     if let Some((field, index, value)) = after.first_nonfinite() {
                         cause = Some(RejectCause::NonFinite);
@@ -262,17 +290,34 @@ where
                             }
                             rec.verdict = Some(j.verdict);
                         }
-                        if cause.is_none() && limit_error.is_none() {
-                            for limit in self.limits.iter_mut() {
-                                limit.accepted(&before, &after, dt);
-                            }
-                        }
                     }
                 }
             }
             if let Some(source) = limit_error {
+                fatal = Some(ControllerError::Limit { t, source });
+            }
+            // 4. The processes agree on the verdict: any fatal failure ends the run
+            // everywhere, any rejection rejects everywhere.
+            let mut flags = [fatal.is_some(), cause.is_some()];
+            self.reduce.any_flags(&mut flags);
+            if flags[0] {
                 stepper.reject();
-                return Err(ControllerError::Limit { t, source });
+                return Err(fatal.unwrap_or(ControllerError::OtherRank {
+                    t,
+                    phase: "in its trial",
+                }));
+            }
+            if flags[1] && cause.is_none() {
+                cause = Some(RejectCause::OtherRank);
+                rejected_by = Some(bound::OTHER_RANK.to_string());
+            }
+            if cause.is_none() {
+                let before = stepper.view();
+                if let Some(after) = stepper.trial_view() {
+                    for limit in self.limits.iter_mut() {
+                        limit.accepted(&before, &after, dt);
+                    }
+                }
             }
             let dsm = records
                 .iter()
@@ -371,7 +416,8 @@ where
                     } else {
                         eta.clamp(self.config.min_shrink, hi)
                     };
-                    retry_cap = Some(eta * dt);
+                    // The same retry step on every process.
+                    retry_cap = Some(self.reduce.min_and_any(eta * dt, false).0);
                     last = Some(decision);
                 }
             }

@@ -35,6 +35,9 @@ pub mod bound {
     pub const RETRY: &str = "retry";
     /// The configured `dt_initial`.
     pub const DT_INITIAL: &str = "dt_initial";
+    /// Another process's step, smaller than this one's (the global minimum of
+    /// [`crate::reduce`]).
+    pub const OTHER_RANK: &str = "other_rank";
 }
 
 /// Whether the attempt was accepted.

@@ -92,6 +92,15 @@ pub enum ControllerError {
         /// The time the stepper reports after accepting it.
         t_after: f64,
     },
+    /// Another process of a distributed run failed ([`crate::reduce`]); this one stops with
+    /// it instead of waiting. The failing process returns its own error.
+    #[error("another process failed {phase} at t = {}", Num(*t))]
+    OtherRank {
+        /// Time of the committed state.
+        t: f64,
+        /// When: `"before its trial"` or `"in its trial"`.
+        phase: &'static str,
+    },
     /// A checkpoint does not fit the controller's limits.
     #[error("cannot restore checkpoint: {message}")]
     Restore {

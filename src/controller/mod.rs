@@ -78,6 +78,8 @@ where
     config: ControllerConfig,
     limits: Vec<Box<dyn StepLimit<D>>>,
     state: ControllerState,
+    /// Global reductions over the run's processes ([`crate::reduce`]).
+    reduce: Box<dyn crate::reduce::Reduce>,
 }
 
 impl<const D: usize> std::fmt::Debug for Controller<D>
@@ -92,6 +94,7 @@ where
                 &self.limits.iter().map(|l| l.name()).collect::<Vec<_>>(),
             )
             .field("state", &self.state)
+            .field("reduce", &self.reduce)
             .finish()
     }
 }
@@ -117,7 +120,17 @@ where
             config,
             limits,
             state,
+            reduce: Box::new(crate::reduce::SingleProcess),
         })
+    }
+
+    /// The same controller deciding together with the other processes of a distributed
+    /// run: every step is the global minimum and any process's rejection rejects
+    /// everywhere ([`crate::reduce`]). Every process must drive its controller with the
+    /// same calls.
+    pub fn with_reduce(mut self, reduce: Box<dyn crate::reduce::Reduce>) -> Self {
+        self.reduce = reduce;
+        self
     }
 
     /// The configuration.
@@ -190,6 +203,7 @@ where
             config: checkpoint.config,
             limits,
             state: checkpoint.state,
+            reduce: Box::new(crate::reduce::SingleProcess),
         })
     }
 

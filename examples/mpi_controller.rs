@@ -1,0 +1,296 @@
+//! One controlled run across MPI ranks: every rank steps its own 2D problem and the
+//! controllers agree, through `reduce::MpiReduce`, on one step and one verdict per attempt.
+//!
+//! ```text
+//! cargo build --release --features mpi --example mpi_controller
+//! mpirun -np 4 target/release/examples/mpi_controller [--cells N] [--t-end T] [--rank-offset K]
+//!        [--fail-rank R --fail-step K [--once]] [--abort-rank R --fail-step K] [--out DIR]
+//! ```
+//!
+//! Rank `r` runs a plane P wave on a periodic unit square of `N×N` cells (default 16), GIMP,
+//! 2×2 particles per cell, with Young's modulus `1 + (r + offset)/2` (`--rank-offset`,
+//! default 0): the ranks' own limits propose different steps and the run takes the
+//! smallest — the stiffest rank's, so that `-np 4` takes the steps of `-np 1 --rank-offset 3`. `--fail-rank R --fail-step K` makes rank
+//! `R`'s trials non-finite from step `K` on (every rank must reject, and the run ends with too
+//! many rejections everywhere), with `--once` only its first attempt at step `K` (every rank
+//! rejects once and goes on); `--abort-rank R` makes its trial fail with an error no smaller
+//! step can fix (that rank ends with it, the others with "another process failed").
+//!
+//! Every rank prints one JSON line on stdout: its rank, a digest of the accepted steps' `dt`
+//! bits (equal digests: the same steps, bit for bit), the rejections by cause, the final time and its error,
+//! the run's wall time and the time spent in the controller's reductions (`reduce_s`,
+//! `reductions`: the cost of agreeing, waiting for slower ranks included). With `--out DIR`
+//! each rank also writes that line, with every step's `dt` bits, to `DIR/rank-R.json`
+//! (lines from several ranks can interleave on a shared terminal).
+//! Exit status 0 when the run reached `t_end`, 1 when it ended with an error, 2 on bad
+//! arguments.
+
+use mpi::topology::Communicator;
+use mpm_dt::controller::{Controller, ControllerConfig, Outcome};
+use mpm_dt::limits_nd::standard_limits;
+use mpm_dt::nd::{GridNd, MaterialNd, ParticlesNd, ShapeNd, SolverNd, Tensor, Vector};
+use mpm_dt::reduce::{MpiReduce, Reduce};
+use mpm_dt::stepper::StepError;
+use mpm_dt::{Boundary, Stepper, ViewNd};
+use serde_json::json;
+use std::cell::Cell;
+use std::process::ExitCode;
+use std::rc::Rc;
+use std::time::{Duration, Instant};
+
+/// The reference solver, with a fault injected on request.
+struct Faulty {
+    inner: SolverNd<2>,
+    /// From this step on the trial fails: `(step, fatal)`.
+    fail_from: Option<(u64, bool)>,
+    /// Only the first attempt at that step fails.
+    once: bool,
+}
+
+impl Stepper<2> for Faulty {
+    fn time(&self) -> f64 {
+        self.inner.time()
+    }
+    fn step_count(&self) -> u64 {
+        self.inner.step_count()
+    }
+    fn try_step(&mut self, dt: f64) -> Result<(), StepError> {
+        match self.fail_from {
+            Some((k, fatal)) if self.inner.step_count() >= k => {
+                if self.once {
+                    self.fail_from = None;
+                }
+                self.inner.reject();
+                let (t, step) = (self.inner.time(), self.inner.step_count());
+                Err(if fatal {
+                    StepError::Other(format!("injected failure at step {step}"))
+                } else {
+                    StepError::NonFinite {
+                        field: "v",
+                        index: 0,
+                        t,
+                        step,
+                        dt,
+                    }
+                })
+            }
+            _ => self.inner.try_step(dt),
+        }
+    }
+    fn accept(&mut self) -> Result<(), StepError> {
+        self.inner.accept()
+    }
+    fn reject(&mut self) {
+        self.inner.reject()
+    }
+    fn view(&self) -> ViewNd<'_, 2> {
+        self.inner.view()
+    }
+    fn trial_view(&self) -> Option<ViewNd<'_, 2>> {
+        self.inner.trial_view()
+    }
+}
+
+/// Time spent in the reductions and their number, shared with `main`.
+#[derive(Debug, Default)]
+struct ReduceClock {
+    spent: Cell<Duration>,
+    calls: Cell<u64>,
+}
+
+/// [`MpiReduce`] with a stopwatch around every call.
+#[derive(Debug)]
+struct Timed {
+    inner: MpiReduce,
+    clock: Rc<ReduceClock>,
+}
+
+impl Timed {
+    fn time<T>(&self, f: impl FnOnce() -> T) -> T {
+        let start = Instant::now();
+        let out = f();
+        self.clock
+            .spent
+            .set(self.clock.spent.get() + start.elapsed());
+        self.clock.calls.set(self.clock.calls.get() + 1);
+        out
+    }
+}
+
+impl Reduce for Timed {
+    fn rank(&self) -> usize {
+        self.inner.rank()
+    }
+    fn size(&self) -> usize {
+        self.inner.size()
+    }
+    fn min_and_any(&self, value: f64, flag: bool) -> (f64, bool) {
+        self.time(|| self.inner.min_and_any(value, flag))
+    }
+    fn any_flags(&self, flags: &mut [bool]) {
+        self.time(|| self.inner.any_flags(flags))
+    }
+    fn sum(&self, values: &mut [f64]) {
+        self.time(|| self.inner.sum(values))
+    }
+}
+
+struct Args {
+    cells: usize,
+    t_end: f64,
+    fail: Option<(usize, bool)>,
+    fail_step: u64,
+    once: bool,
+    rank_offset: usize,
+    out: Option<std::path::PathBuf>,
+}
+
+fn parse() -> Result<Args, String> {
+    let mut a = Args {
+        cells: 16,
+        t_end: 1.0,
+        fail: None,
+        fail_step: 5,
+        once: false,
+        rank_offset: 0,
+        out: None,
+    };
+    let mut it = std::env::args().skip(1);
+    while let Some(flag) = it.next() {
+        let mut value = || it.next().ok_or(format!("{flag} needs a value"));
+        match flag.as_str() {
+            "--cells" => a.cells = value()?.parse().map_err(|e| format!("--cells: {e}"))?,
+            "--t-end" => a.t_end = value()?.parse().map_err(|e| format!("--t-end: {e}"))?,
+            "--fail-rank" => a.fail = Some((value()?.parse().map_err(|e| format!("{e}"))?, false)),
+            "--abort-rank" => a.fail = Some((value()?.parse().map_err(|e| format!("{e}"))?, true)),
+            "--fail-step" => a.fail_step = value()?.parse().map_err(|e| format!("{e}"))?,
+            "--once" => a.once = true,
+            "--out" => a.out = Some(value()?.into()),
+            "--rank-offset" => {
+                a.rank_offset = value()?
+                    .parse()
+                    .map_err(|e| format!("--rank-offset: {e}"))?
+            }
+            other => return Err(format!("unknown argument {other}")),
+        }
+    }
+    if a.cells < 2 || !(a.t_end > 0.0 && a.t_end.is_finite()) {
+        return Err("--cells must be ≥ 2 and --t-end positive".into());
+    }
+    Ok(a)
+}
+
+fn problem(cells: usize, youngs_modulus: f64) -> Result<SolverNd<2>, String> {
+    let grid = GridNd::<2>::new([Boundary::Periodic; 2], [cells; 2], [1.0; 2]);
+    let material = MaterialNd::LinearElastic {
+        youngs_modulus,
+        poisson_ratio: 0.3,
+    };
+    let particles = ParticlesNd::uniform(&grid, [2; 2], 1.0, material);
+    let mut s = SolverNd::new(grid, ShapeNd::Gimp, particles, Vector::<2>::zeros())
+        .map_err(|e| e.to_string())?;
+    let c = material.p_modulus().sqrt();
+    let n = s.n_particles();
+    let v: Vec<Vector<2>> = (0..n)
+        .map(|p| {
+            let x = s.view().x[p][0];
+            Vector::<2>::new(1e-2 * c * (2.0 * std::f64::consts::PI * x).sin(), 0.0)
+        })
+        .collect();
+    s.set_velocity_and_stress(&v, &vec![Tensor::<2>::zeros(); n])
+        .map_err(|e| e.to_string())?;
+    Ok(s)
+}
+
+fn main() -> ExitCode {
+    let args = match parse() {
+        Ok(a) => a,
+        Err(e) => {
+            eprintln!("mpi_controller: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let Some(universe) = mpi::initialize() else {
+        eprintln!("mpi_controller: MPI could not be initialised");
+        return ExitCode::from(1);
+    };
+    let world = universe.world();
+    let (rank, size) = (world.rank() as usize, world.size() as usize);
+    let reduce = MpiReduce::new(world);
+    let solver = match problem(args.cells, 1.0 + 0.5 * (rank + args.rank_offset) as f64) {
+        Ok(s) => s,
+        Err(e) => {
+            eprintln!("mpi_controller: rank {rank}: {e}");
+            return ExitCode::from(1);
+        }
+    };
+    let mut stepper = Faulty {
+        inner: solver,
+        fail_from: args
+            .fail
+            .filter(|&(r, _)| r == rank)
+            .map(|(_, fatal)| (args.fail_step, fatal)),
+        once: args.once,
+    };
+    let config = ControllerConfig::default();
+    let limits = standard_limits::<2>(&config, Vector::<2>::zeros());
+    let controller = match Controller::<2>::new(config, limits) {
+        Ok(c) => c,
+        Err(e) => {
+            eprintln!("mpi_controller: {e}");
+            return ExitCode::from(1);
+        }
+    };
+    let clock = Rc::new(ReduceClock::default());
+    let mut controller = controller.with_reduce(Box::new(Timed {
+        inner: reduce,
+        clock: Rc::clone(&clock),
+    }));
+    let start = Instant::now();
+    let mut dts: Vec<String> = Vec::new();
+    let mut rejected: std::collections::BTreeMap<String, u64> = Default::default();
+    let result = controller.run_until(&mut stepper, args.t_end, &mut |d| match d.outcome {
+        Outcome::Accepted => dts.push(format!("{:016x}", d.dt.to_bits())),
+        Outcome::Rejected => {
+            let cause = d.cause.map_or("none", |c| c.as_str()).to_string();
+            *rejected.entry(cause).or_default() += 1;
+        }
+    });
+    let wall_s = start.elapsed().as_secs_f64();
+    // FNV-1a over the steps' bits: equal digests, equal steps (for the terminal; the
+    // files of `--out` hold every step).
+    let digest = dts
+        .iter()
+        .flat_map(|h| h.bytes())
+        .fold(0xcbf29ce484222325u64, |h, b| {
+            (h ^ u64::from(b)).wrapping_mul(0x100000001b3)
+        });
+    let mut line = json!({
+        "rank": rank,
+        "size": size,
+        "steps": dts.len(),
+        "dt_digest": format!("{digest:016x}"),
+        "rejected": rejected,
+        "t": stepper.time(),
+        "energy": stepper.inner.total_energy(),
+        "error": result.as_ref().err().map(|e| e.to_string()),
+        "wall_s": wall_s,
+        "reduce_s": clock.spent.get().as_secs_f64(),
+        "reductions": clock.calls.get(),
+    });
+    println!("{line}");
+    if let Some(dir) = &args.out {
+        line["dt_bits"] = json!(dts);
+        let path = dir.join(format!("rank-{rank}.json"));
+        if let Err(e) = std::fs::write(&path, line.to_string()) {
+            eprintln!("mpi_controller: cannot write {}: {e}", path.display());
+            return ExitCode::from(1);
+        }
+    }
+    drop(universe);
+    if result.is_ok() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(1)
+    }
+}

@@ -1,0 +1,146 @@
+//! Capability (feature `mpi`): the controller makes one decision for a run split over MPI
+//! ranks. Runs `examples/mpi_controller` under `mpirun` (build it first:
+//! `cargo build --features mpi --example mpi_controller`; `.ci/run` does) and checks that
+//!
+//! * on 1, 2 and 4 ranks every rank takes the same accepted steps, bit for bit, and the run
+//!   on 4 ranks takes exactly the steps of the stiffest rank's problem run alone;
+//! * a rank whose trial goes non-finite once makes every rank reject that attempt, and all
+//!   go on to `t_end` together;
+//! * a rank whose trials stay non-finite ends every rank with too many rejections, and a
+//!   rank that fails fatally ends the others with "another process failed" — no rank hangs
+//!   (each run has a time limit).
+#![cfg(feature = "mpi")]
+
+use serde_json::Value;
+use std::path::PathBuf;
+use std::process::{Command, Stdio};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::time::{Duration, Instant};
+
+fn example() -> PathBuf {
+    let exe = std::env::current_exe().expect("test executable path");
+    let path = exe
+        .parent()
+        .and_then(|d| d.parent())
+        .expect("target/<profile>")
+        .join("examples")
+        .join("mpi_controller");
+    assert!(
+        path.exists(),
+        "{} not found: run `cargo build --features mpi --example mpi_controller` first",
+        path.display()
+    );
+    path
+}
+
+/// Runs `mpirun -np n mpi_controller args… --out DIR` (killed after 120 s: a hang fails
+/// the test) and returns the exit code and every rank's record, ordered by rank.
+fn run(n: usize, args: &[&str]) -> (Option<i32>, Vec<Value>) {
+    static RUNS: AtomicUsize = AtomicUsize::new(0);
+    let k = RUNS.fetch_add(1, Ordering::SeqCst);
+    let dir = std::env::temp_dir().join(format!("mpm-dt-mpi-{}-{k}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let mut child = Command::new("mpirun")
+        .args([
+            "--allow-run-as-root",
+            "--oversubscribe",
+            "-np",
+            &n.to_string(),
+        ])
+        .arg(example())
+        .args(args)
+        .arg("--out")
+        .arg(&dir)
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("mpirun starts (OpenMPI installed?)");
+    let start = Instant::now();
+    let status = loop {
+        if let Some(s) = child.try_wait().expect("wait") {
+            break s;
+        }
+        if start.elapsed() > Duration::from_secs(120) {
+            let _ = child.kill();
+            panic!("mpirun -np {n} {args:?} did not end within 120 s");
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    let records: Vec<Value> = (0..n)
+        .map(|r| {
+            let path = dir.join(format!("rank-{r}.json"));
+            let text = std::fs::read_to_string(&path)
+                .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+            serde_json::from_str(&text).expect("JSON")
+        })
+        .collect();
+    let _ = std::fs::remove_dir_all(&dir);
+    (status.code(), records)
+}
+
+fn dts(v: &Value) -> Vec<String> {
+    v["dt_bits"]
+        .as_array()
+        .expect("dt_bits")
+        .iter()
+        .map(|s| s.as_str().expect("hex").to_string())
+        .collect()
+}
+
+#[test]
+fn every_rank_takes_the_same_steps() {
+    let (code, alone) = run(1, &["--rank-offset", "3"]);
+    assert_eq!(code, Some(0));
+    for n in [1, 2, 4] {
+        let (code, ranks) = run(n, &[]);
+        assert_eq!(code, Some(0), "{n} ranks");
+        for r in &ranks {
+            assert_eq!(r["t"].as_f64(), Some(1.0), "{n} ranks: {r}");
+            assert_eq!(dts(r), dts(&ranks[0]), "{n} ranks: rank {}", r["rank"]);
+        }
+        if n == 4 {
+            // Rank 3 runs the stiffest problem, the one `--rank-offset 3` runs alone.
+            assert_eq!(dts(&ranks[0]), dts(&alone[0]));
+            assert_eq!(ranks[3]["energy"], alone[0]["energy"]);
+        }
+    }
+}
+
+#[test]
+fn a_non_finite_trial_on_one_rank_rejects_everywhere() {
+    let (code, ranks) = run(4, &["--fail-rank", "2", "--fail-step", "9", "--once"]);
+    assert_eq!(code, Some(0));
+    for r in &ranks {
+        let cause = if r["rank"] == 2 {
+            "non_finite"
+        } else {
+            "other_rank"
+        };
+        assert_eq!(r["rejected"][cause].as_u64(), Some(1), "{r}");
+        assert_eq!(dts(r), dts(&ranks[0]));
+        assert_eq!(r["t"].as_f64(), Some(1.0));
+    }
+}
+
+#[test]
+fn a_failing_rank_ends_every_rank_with_an_error() {
+    let (code, ranks) = run(4, &["--fail-rank", "1", "--fail-step", "5"]);
+    assert_eq!(code, Some(1));
+    for r in &ranks {
+        let error = r["error"].as_str().expect("an error on every rank");
+        assert!(error.contains("consecutive rejections"), "{r}");
+        assert_eq!(r["steps"].as_u64(), Some(5));
+    }
+    let (code, ranks) = run(4, &["--abort-rank", "2", "--fail-step", "7"]);
+    assert_eq!(code, Some(1));
+    for r in &ranks {
+        let error = r["error"].as_str().expect("an error on every rank");
+        if r["rank"] == 2 {
+            assert!(error.contains("injected failure"), "{r}");
+        } else {
+            assert!(error.contains("another process failed"), "{r}");
+        }
+        assert_eq!(r["steps"].as_u64(), Some(7));
+    }
+}
