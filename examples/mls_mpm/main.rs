@@ -164,8 +164,8 @@ fn run_controlled(scene: Scene) -> ControlledRun {
         .map(|e| e.to_string());
     let stats = controller.stats();
     eprintln!(
-        "  stability refreshes: {} (Lanczos products {})",
-        refreshes.0, refreshes.1
+        "  stability refreshes: {} (Lanczos products {}); steps bound by {:?}",
+        refreshes.0, refreshes.1, stats.binding
     );
     ControlledRun {
         steps: stats.accepted,
