@@ -193,6 +193,16 @@ where
         let _ = factor;
     }
 
+    /// Hands the limit the run's global reductions ([`crate::reduce`]); called by
+    /// [`Controller::with_reduce`](crate::controller::Controller::with_reduce). A limit
+    /// whose proposal needs sums over the whole state (the d-dimensional stability
+    /// tracker's Lanczos products) reduces with it, and must then take part in the same
+    /// reductions on every process. Default: ignored (a proposal from local data only,
+    /// which the controller's global minimum covers).
+    fn set_reduce(&mut self, reduce: std::rc::Rc<dyn crate::reduce::Reduce>) {
+        let _ = reduce;
+    }
+
     /// The limit's internal state (histories, warm starts) for a checkpoint, or `None`
     /// when the limit is stateless (the default). Restoring it with
     /// [`StepLimit::restore_state`] must make the limit behave bit-identically.

@@ -1,9 +1,12 @@
 //! Capability (feature `mpi`): the controller makes one decision for a run split over MPI
-//! ranks. Runs `examples/mpi_controller` under `mpirun` (build it first:
-//! `cargo build --features mpi --example mpi_controller`; `.ci/run` does) and checks that
+//! ranks. Runs `examples/mpi_controller` and `examples/mpi_simulate` under `mpirun` (build
+//! them first: `cargo build --features mpi --examples`; `.ci/run` does) and checks that
 //!
-//! * on 1, 2 and 4 ranks every rank takes the same accepted steps, bit for bit, and the run
-//!   on 4 ranks takes exactly the steps of the stiffest rank's problem run alone;
+//! * a scenario whose particles are split over 1, 2 and 4 ranks (`SolverNd::new_distributed`,
+//!   2D and 3D, moving bodies included) takes the same steps to 10⁻¹² and ends in the same
+//!   particle state to 10⁻¹⁰;
+//! * on 2 and 4 ranks every rank takes the same accepted steps, bit for bit, as many as
+//!   the undivided run;
 //! * a rank whose trial goes non-finite once makes every rank reject that attempt, and all
 //!   go on to `t_end` together;
 //! * a rank whose trials stay non-finite ends every rank with too many rejections, and a
@@ -17,17 +20,17 @@ use std::process::{Command, Stdio};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
-fn example() -> PathBuf {
+fn example_named(name: &str) -> PathBuf {
     let exe = std::env::current_exe().expect("test executable path");
     let path = exe
         .parent()
         .and_then(|d| d.parent())
         .expect("target/<profile>")
         .join("examples")
-        .join("mpi_controller");
+        .join(name);
     assert!(
         path.exists(),
-        "{} not found: run `cargo build --features mpi --example mpi_controller` first",
+        "{} not found: run `cargo build --features mpi --examples` first",
         path.display()
     );
     path
@@ -36,6 +39,10 @@ fn example() -> PathBuf {
 /// Runs `mpirun -np n mpi_controller args… --out DIR` (killed after 120 s: a hang fails
 /// the test) and returns the exit code and every rank's record, ordered by rank.
 fn run(n: usize, args: &[&str]) -> (Option<i32>, Vec<Value>) {
+    run_example("mpi_controller", n, args)
+}
+
+fn run_example(name: &str, n: usize, args: &[&str]) -> (Option<i32>, Vec<Value>) {
     static RUNS: AtomicUsize = AtomicUsize::new(0);
     let k = RUNS.fetch_add(1, Ordering::SeqCst);
     let dir = std::env::temp_dir().join(format!("mpm-dt-mpi-{}-{k}", std::process::id()));
@@ -48,7 +55,7 @@ fn run(n: usize, args: &[&str]) -> (Option<i32>, Vec<Value>) {
             "-np",
             &n.to_string(),
         ])
-        .arg(example())
+        .arg(example_named(name))
         .args(args)
         .arg("--out")
         .arg(&dir)
@@ -90,20 +97,19 @@ fn dts(v: &Value) -> Vec<String> {
 
 #[test]
 fn every_rank_takes_the_same_steps() {
-    let (code, alone) = run(1, &["--rank-offset", "3"]);
+    let (code, alone) = run(1, &[]);
     assert_eq!(code, Some(0));
-    for n in [1, 2, 4] {
+    for n in [2, 4] {
         let (code, ranks) = run(n, &[]);
         assert_eq!(code, Some(0), "{n} ranks");
         for r in &ranks {
             assert_eq!(r["t"].as_f64(), Some(1.0), "{n} ranks: {r}");
+            // Bit for bit across the ranks of one run.
             assert_eq!(dts(r), dts(&ranks[0]), "{n} ranks: rank {}", r["rank"]);
         }
-        if n == 4 {
-            // Rank 3 runs the stiffest problem, the one `--rank-offset 3` runs alone.
-            assert_eq!(dts(&ranks[0]), dts(&alone[0]));
-            assert_eq!(ranks[3]["energy"], alone[0]["energy"]);
-        }
+        // And the same number of steps as the undivided run (the values to 1e-12: the
+        // scenario test below).
+        assert_eq!(dts(&ranks[0]).len(), dts(&alone[0]).len(), "{n} ranks");
     }
 }
 
@@ -142,5 +148,68 @@ fn a_failing_rank_ends_every_rank_with_an_error() {
             assert!(error.contains("another process failed"), "{r}");
         }
         assert_eq!(r["steps"].as_u64(), Some(7));
+    }
+}
+
+/// The particles' final positions and velocities, concatenated over the ranks.
+fn state(ranks: &[Value]) -> Vec<f64> {
+    let field = |f: &'static str| {
+        ranks.iter().flat_map(move |r| {
+            r[f].as_array()
+                .expect("state")
+                .iter()
+                .map(|v| v.as_f64().expect("number"))
+        })
+    };
+    field("x").chain(field("v")).collect()
+}
+
+#[test]
+fn a_scenario_split_over_ranks_ends_in_the_same_state() {
+    for (file, t_end) in [
+        ("scenarios/nd/plane_p_2d.json", "0.5"),
+        ("scenarios/nd/plane_s_3d_bspline.json", "2"),
+        ("scenarios/nd/colliding_disks.json", "1.5"),
+    ] {
+        let path = format!("{}/{file}", env!("CARGO_MANIFEST_DIR"));
+        let args = ["--scenario", path.as_str(), "--t-end", t_end];
+        let (code, one) = run_example("mpi_simulate", 1, &args);
+        assert_eq!(code, Some(0), "{file}");
+        let reference_dt: Vec<f64> = dts(&one[0])
+            .iter()
+            .map(|h| f64::from_bits(u64::from_str_radix(h, 16).expect("hex")))
+            .collect();
+        let reference = state(&one);
+        let scale = reference.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        for n in [2, 4] {
+            let (code, ranks) = run_example("mpi_simulate", n, &args);
+            assert_eq!(code, Some(0), "{file} on {n} ranks");
+            for r in &ranks {
+                let dt: Vec<f64> = dts(r)
+                    .iter()
+                    .map(|h| f64::from_bits(u64::from_str_radix(h, 16).expect("hex")))
+                    .collect();
+                assert_eq!(dt.len(), reference_dt.len(), "{file} on {n} ranks: steps");
+                for (a, b) in dt.iter().zip(&reference_dt) {
+                    assert!(
+                        (a - b).abs() <= 1e-12 * b,
+                        "{file} on {n} ranks: dt {a} vs {b}"
+                    );
+                }
+            }
+            let s = state(&ranks);
+            assert_eq!(s.len(), reference.len());
+            let worst = s
+                .iter()
+                .zip(&reference)
+                .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+            eprintln!(
+                "{file} on {n} ranks: largest state difference {worst:.2e} (scale {scale:.2e})"
+            );
+            assert!(
+                worst <= 1e-10 * scale.max(1.0),
+                "{file} on {n} ranks: {worst}"
+            );
+        }
     }
 }

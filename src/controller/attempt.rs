@@ -102,20 +102,22 @@ where
             // step (`crate::reduce`): every process takes part in every reduction.
             let mut pre_error: Option<ControllerError> = None;
             for (index, limit) in self.limits.iter_mut().enumerate() {
+                // After an error the remaining limits still propose (their reductions must
+                // run on every process); the first error is kept.
                 let p = match limit.propose(&view) {
                     Ok(p) => p,
                     Err(source) => {
-                        pre_error = Some(ControllerError::Limit { t, source });
-                        break;
+                        pre_error.get_or_insert(ControllerError::Limit { t, source });
+                        continue;
                     }
                 };
                 if p.dt.is_nan() || p.dt <= 0.0 {
-                    pre_error = Some(ControllerError::InvalidProposal {
+                    pre_error.get_or_insert(ControllerError::InvalidProposal {
                         limit: limit.name().to_string(),
                         dt: p.dt,
                         t,
                     });
-                    break;
+                    continue;
                 }
                 let mut metrics = p.metrics;
                 metrics.retain(|_, v| v.is_finite());

@@ -79,7 +79,7 @@ where
     limits: Vec<Box<dyn StepLimit<D>>>,
     state: ControllerState,
     /// Global reductions over the run's processes ([`crate::reduce`]).
-    reduce: Box<dyn crate::reduce::Reduce>,
+    reduce: std::rc::Rc<dyn crate::reduce::Reduce>,
 }
 
 impl<const D: usize> std::fmt::Debug for Controller<D>
@@ -120,7 +120,7 @@ where
             config,
             limits,
             state,
-            reduce: Box::new(crate::reduce::SingleProcess),
+            reduce: std::rc::Rc::new(crate::reduce::SingleProcess),
         })
     }
 
@@ -128,7 +128,11 @@ where
     /// run: every step is the global minimum and any process's rejection rejects
     /// everywhere ([`crate::reduce`]). Every process must drive its controller with the
     /// same calls.
-    pub fn with_reduce(mut self, reduce: Box<dyn crate::reduce::Reduce>) -> Self {
+    /// The limits receive it too ([`StepLimit::set_reduce`]).
+    pub fn with_reduce(mut self, reduce: std::rc::Rc<dyn crate::reduce::Reduce>) -> Self {
+        for limit in self.limits.iter_mut() {
+            limit.set_reduce(std::rc::Rc::clone(&reduce));
+        }
         self.reduce = reduce;
         self
     }
@@ -203,7 +207,7 @@ where
             config: checkpoint.config,
             limits,
             state: checkpoint.state,
-            reduce: Box::new(crate::reduce::SingleProcess),
+            reduce: std::rc::Rc::new(crate::reduce::SingleProcess),
         })
     }
 

@@ -60,11 +60,13 @@
 //! the guard that catches all three: it rejects a step whose energy grows and lowers this
 //! limit's safety for the rest of the run ([`StepLimit::scale_safety`]).
 
-use super::stiffness::{diagonal_argmax, diagonal_max, lanczos};
+use super::stiffness::{diagonal_argmax_reduced, lanczos_reduced};
 use crate::dimension::{Dim, Dimension};
 use crate::limit::{LimitError, Metrics, Proposal, StepLimit};
 use crate::nd::{Vector, ViewNd};
+use crate::reduce::{Reduce, SingleProcess};
 use serde::{Deserialize, Serialize};
+use std::rc::Rc;
 
 /// Name in logs: `"stability"`.
 pub const STABILITY: &str = "stability";
@@ -127,6 +129,8 @@ pub struct StabilityNd<const D: usize> {
     age: u32,
     refreshes: u64,
     applications: u64,
+    /// The run's reductions ([`StepLimit::set_reduce`]).
+    reduce: Rc<dyn Reduce>,
 }
 
 impl<const D: usize> StabilityNd<D> {
@@ -145,6 +149,7 @@ impl<const D: usize> StabilityNd<D> {
             age: 0,
             refreshes: 0,
             applications: 0,
+            reduce: Rc::new(SingleProcess),
         }
     }
 
@@ -193,7 +198,7 @@ impl<const D: usize> StabilityNd<D> {
         }
         if m_min < (1.0 - self.config.refresh_mass) * self.mass_ref.0 {
             // A lighter node: refresh only if some node's diagonal of A grew (module docs).
-            let d = diagonal_max(view);
+            let d = diagonal_argmax_reduced(view, &*self.reduce).0;
             let growth = d / self.diag_ref;
             if growth.is_nan() || growth > growth_limit {
                 return None;
@@ -248,7 +253,7 @@ impl<const D: usize> StabilityNd<D> {
 
     fn refresh(&mut self, view: &ViewNd<'_, D>) -> Result<f64, LimitError> {
         let n = view.n_nodes() * D;
-        let (diag_max, diag_at) = diagonal_argmax(view);
+        let (diag_max, diag_at) = diagonal_argmax_reduced(view, &*self.reduce);
         let mut start: Vec<f64> = if self.ritz.len() == n {
             // Warm start, nudged so that it is never orthogonal to a new top mode.
             self.ritz
@@ -266,7 +271,13 @@ impl<const D: usize> StabilityNd<D> {
         if diag_at < n && scale > 0.0 {
             start[diag_at] += scale;
         }
-        let r = lanczos(view, &start, self.config.tol, self.config.max_iter);
+        let r = lanczos_reduced(
+            view,
+            &start,
+            self.config.tol,
+            self.config.max_iter,
+            &*self.reduce,
+        );
         let lambda = r.lambda * (1.0 + self.config.tol) * self.config.margin;
         if !(lambda.is_finite() && lambda > 0.0) {
             return Err(LimitError::Other {
@@ -329,7 +340,14 @@ where
 
     fn propose(&mut self, state: &ViewNd<'_, D>) -> Result<Proposal, LimitError> {
         let mut metrics = Metrics::new();
-        let lambda = match (self.staleness(state), self.lambda) {
+        // The processes of a split run agree: any stale part refreshes everywhere, and
+        // the moduli growth is the largest of all (`crate::reduce`).
+        let local = self.staleness(state);
+        let (neg_growth, stale) = self
+            .reduce
+            .min_and_any(-local.unwrap_or(1.0), local.is_none());
+        let agreed = (!stale).then_some(-neg_growth);
+        let lambda = match (agreed, self.lambda) {
             (Some(growth), Some(cached)) => cached * growth,
             _ => {
                 let l = self.refresh(state)?;
@@ -350,5 +368,9 @@ where
         if factor.is_finite() && factor > 0.0 {
             self.safety *= factor;
         }
+    }
+
+    fn set_reduce(&mut self, reduce: Rc<dyn Reduce>) {
+        self.reduce = reduce;
     }
 }

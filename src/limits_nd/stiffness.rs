@@ -16,6 +16,7 @@
 //! `λmax(A)` from a few such products; [`dense`] assembles `A` for small problems.
 
 use crate::nd::{Tensor, Vector, ViewNd};
+use crate::reduce::{Reduce, SingleProcess};
 use faer::Mat;
 
 /// `M^{-1/2}` on the nodes: `1/√m_i` at active nodes, 0 elsewhere (inactive nodes drop out
@@ -94,6 +95,16 @@ pub fn diagonal_max<const D: usize>(view: &ViewNd<'_, D>) -> f64 {
 /// [`diagonal_max`] and where it is: the index `D·i + a` of node `i`, component `a` (0 when
 /// no node is active).
 pub fn diagonal_argmax<const D: usize>(view: &ViewNd<'_, D>) -> (f64, usize) {
+    diagonal_argmax_reduced(view, &SingleProcess)
+}
+
+/// [`diagonal_argmax`] for a run split over processes: the view holds this process's
+/// particles and the global nodal masses; the particles' diagonal sums are completed with
+/// `reduce` ([`crate::reduce`]), so every process returns the same value.
+pub fn diagonal_argmax_reduced<const D: usize>(
+    view: &ViewNd<'_, D>,
+    reduce: &dyn Reduce,
+) -> (f64, usize) {
     let mut diag = vec![0.0; view.n_nodes() * D];
     let w = &view.weights;
     for p in 0..view.n_particles() {
@@ -107,6 +118,7 @@ pub fn diagonal_argmax<const D: usize>(view: &ViewNd<'_, D>) -> (f64, usize) {
             }
         }
     }
+    reduce.sum(&mut diag);
     let mut best: (f64, usize) = (0.0, 0);
     for i in 0..view.n_nodes() {
         if view.node_active[i] {
@@ -172,6 +184,21 @@ pub fn lanczos<const D: usize>(
     tol: f64,
     max_iter: usize,
 ) -> LanczosResult {
+    lanczos_reduced(view, start, tol, max_iter, &SingleProcess)
+}
+
+/// [`lanczos`] for a run split over processes ([`crate::reduce`]): the view holds this
+/// process's particles and the global nodal fields; each product `A u` is this process's
+/// particles' part, summed over the processes with `reduce`. The vectors are the whole
+/// grid's on every process, so the iteration, its stopping test and its result are the
+/// same everywhere (every process must call it together).
+pub fn lanczos_reduced<const D: usize>(
+    view: &ViewNd<'_, D>,
+    start: &[f64],
+    tol: f64,
+    max_iter: usize,
+    reduce: &dyn Reduce,
+) -> LanczosResult {
     let n = start.len();
     let mut basis: Vec<Vec<f64>> = Vec::new();
     let mut alpha: Vec<f64> = Vec::new();
@@ -203,6 +230,7 @@ pub fn lanczos<const D: usize>(
     let mut settled_runs = 0;
     for k in 0..max_iter.max(1) {
         apply_scaled(view, &inv_sqrt_m, &q, &mut w);
+        reduce.sum(&mut w);
         let a = dot(&q, &w);
         basis.push(q.clone());
         alpha.push(a);

@@ -4,6 +4,7 @@
 
 use super::{GridNd, MaterialNd, ShapeNd, Tensor, Vector, WeightsNd};
 use crate::grid::Boundary;
+use crate::reduce::Reduce;
 
 /// Fills `weights` with `S_ip`, `∇S_ip` at positions `x` (module docs of `shape`).
 /// Returns the first particle whose stencil leaves the stored nodes (a fixed axis), if any.
@@ -91,6 +92,7 @@ pub(super) fn particle_to_grid<const D: usize>(
     node_v: &mut Vec<Vector<D>>,
     node_a: &mut Vec<Vector<D>>,
     active: &mut Vec<bool>,
+    reduce: Option<&dyn Reduce>,
 ) {
     let nn = weights.n_nodes();
     node_mass.clear();
@@ -115,6 +117,9 @@ pub(super) fn particle_to_grid<const D: usize>(
             node_a[i] += vs * g;
         }
     }
+    if let Some(r) = reduce {
+        sum_nodal(r, node_mass, node_v, node_a);
+    }
     active.clear();
     active.resize(nn, false);
     for i in 0..nn {
@@ -127,6 +132,30 @@ pub(super) fn particle_to_grid<const D: usize>(
             node_v[i] = Vector::<D>::zeros();
             node_a[i] = Vector::<D>::zeros();
         }
+    }
+}
+
+/// Completes the nodal sums `Σ_p S m`, `Σ_p S m v`, `−Σ_p V σ ∇S` over the processes of a
+/// split run (one reduction of `(1 + 2D)·n_nodes` numbers). A process whose own pass
+/// failed calls it with zeros, so that every process takes part.
+pub(super) fn sum_nodal<const D: usize>(
+    reduce: &dyn Reduce,
+    node_mass: &mut [f64],
+    node_v: &mut [Vector<D>],
+    node_a: &mut [Vector<D>],
+) {
+    let nn = node_mass.len();
+    let mut buf = Vec::with_capacity(nn * (1 + 2 * D));
+    buf.extend_from_slice(node_mass);
+    buf.extend(node_v.iter().flat_map(|v| v.iter().copied()));
+    buf.extend(node_a.iter().flat_map(|v| v.iter().copied()));
+    reduce.sum(&mut buf);
+    node_mass.copy_from_slice(&buf[..nn]);
+    for (i, v) in node_v.iter_mut().enumerate() {
+        *v = Vector::<D>::from_fn(|a, _| buf[nn + i * D + a]);
+    }
+    for (i, v) in node_a.iter_mut().enumerate() {
+        *v = Vector::<D>::from_fn(|a, _| buf[nn * (1 + D) + i * D + a]);
     }
 }
 

@@ -54,6 +54,22 @@ impl<const D: usize> ParticlesNd<D> {
         }
     }
 
+    /// The particles `[r·n/size, (r+1)·n/size)`: process `r`'s share of a run split over
+    /// `size` processes by particle ([`super::SolverNd::new_distributed`]).
+    pub fn block(&self, r: usize, size: usize) -> Self {
+        let n = self.len();
+        let size = size.max(1);
+        let (lo, hi) = (r.min(size) * n / size, (r + 1).min(size) * n / size);
+        Self {
+            x: self.x[lo..hi].to_vec(),
+            v: self.v[lo..hi].to_vec(),
+            mass: self.mass[lo..hi].to_vec(),
+            volume: self.volume[lo..hi].to_vec(),
+            domain: self.domain[lo..hi].to_vec(),
+            material: self.material[lo..hi].to_vec(),
+        }
+    }
+
     /// Number of particles.
     pub fn len(&self) -> usize {
         self.x.len()

@@ -367,6 +367,27 @@ impl ScenarioNd {
     pub fn build<const D: usize>(
         &self,
     ) -> Result<(SolverNd<D>, Option<PlaneWave<D>>), ScenarioNdError> {
+        let (grid, particles, gravity, wave) = self.parts::<D>()?;
+        let solver = SolverNd::new(grid, self.shape, particles, gravity)?;
+        Ok((solver, wave))
+    }
+
+    /// [`Self::build`] for this process's part of a run split over the processes of
+    /// `reduce` by particle ([`SolverNd::new_distributed`]).
+    pub fn build_distributed<const D: usize>(
+        &self,
+        reduce: std::rc::Rc<dyn crate::reduce::Reduce>,
+    ) -> Result<(SolverNd<D>, Option<PlaneWave<D>>), ScenarioNdError> {
+        let (grid, particles, gravity, wave) = self.parts::<D>()?;
+        let solver = SolverNd::new_distributed(grid, self.shape, particles, gravity, reduce)?;
+        Ok((solver, wave))
+    }
+
+    /// The grid, particles (with the initial velocity), gravity and exact solution.
+    #[allow(clippy::type_complexity)]
+    fn parts<const D: usize>(
+        &self,
+    ) -> Result<(GridNd<D>, ParticlesNd<D>, Vector<D>, Option<PlaneWave<D>>), ScenarioNdError> {
         if self.dim != D {
             return Err(invalid(
                 "dim",
@@ -417,8 +438,7 @@ impl ScenarioNd {
                 Some(wave)
             }
         };
-        let solver = SolverNd::new(grid, self.shape, particles, gravity)?;
-        Ok((solver, wave))
+        Ok((grid, particles, gravity, wave))
     }
 
     fn particles<const D: usize>(

@@ -15,7 +15,9 @@ use super::kernels::{self, Committed, ParticleFault, Written};
 use super::particles::{ParticlesNd, SetupNdError};
 use super::{GridNd, MaterialNd, ShapeNd, Tensor, Vector, ViewNd, WeightsNd};
 use crate::dimension::{Dim, Dimension};
+use crate::reduce::Reduce;
 use crate::stepper::{StepError, Stepper};
+use std::rc::Rc;
 
 /// Relative nodal-mass threshold: nodes with `m_i ≤ 1e-14 · min_p m_p` are inactive.
 pub const INACTIVE_MASS_RATIO: f64 = 1e-14;
@@ -55,6 +57,9 @@ pub struct SolverNd<const D: usize> {
     trial: StateNd<D>,
     has_trial: bool,
     node_v1: Vec<Vector<D>>,
+    /// The run's reductions when it is split over processes by particle
+    /// ([`SolverNd::new_distributed`]).
+    reduce: Option<Rc<dyn Reduce>>,
 }
 
 impl<const D: usize> SolverNd<D> {
@@ -67,11 +72,47 @@ impl<const D: usize> SolverNd<D> {
         gravity: Vector<D>,
     ) -> Result<Self, SetupNdError> {
         particles.validate(&grid, shape)?;
+        let min_mass = particles.mass.iter().copied().fold(f64::INFINITY, f64::min);
+        Self::build(grid, shape, particles, gravity, min_mass, None)
+    }
+
+    /// This process's part of a run split over the processes of `reduce` by particle
+    /// ([`crate::reduce`]): every process passes the *whole* set of particles and keeps the
+    /// block `[r·n/size, (r+1)·n/size)` ([`ParticlesNd::block`]). Every process holds the
+    /// whole grid; after each particle → grid pass the nodal sums are completed with one
+    /// reduction, so the nodal fields — and the grid → particle update of every particle —
+    /// are those of the undivided run up to the order of the floating-point sums. The
+    /// view holds this process's particles and the global nodal fields. Every process must
+    /// make the same calls (steps, [`Self::set_velocity_and_stress`]) together.
+    ///
+    /// This is a particle decomposition with a replicated grid: memory for the grid and
+    /// the reduction grow with the grid, not with the share of it a process works on (a
+    /// decomposition of the grid itself is not implemented).
+    pub fn new_distributed(
+        grid: GridNd<D>,
+        shape: ShapeNd,
+        particles: ParticlesNd<D>,
+        gravity: Vector<D>,
+        reduce: Rc<dyn Reduce>,
+    ) -> Result<Self, SetupNdError> {
+        particles.validate(&grid, shape)?;
+        let min_mass = particles.mass.iter().copied().fold(f64::INFINITY, f64::min);
+        let block = particles.block(reduce.rank(), reduce.size());
+        Self::build(grid, shape, block, gravity, min_mass, Some(reduce))
+    }
+
+    fn build(
+        grid: GridNd<D>,
+        shape: ShapeNd,
+        particles: ParticlesNd<D>,
+        gravity: Vector<D>,
+        min_mass: f64,
+        reduce: Option<Rc<dyn Reduce>>,
+    ) -> Result<Self, SetupNdError> {
         if gravity.iter().any(|g| !g.is_finite()) {
             return Err(SetupNdError::Gravity);
         }
         let n = particles.len();
-        let min_mass = particles.mass.iter().copied().fold(f64::INFINITY, f64::min);
         let constrained = (0..grid.n_nodes())
             .map(|i| grid.is_constrained(i))
             .collect();
@@ -106,6 +147,7 @@ impl<const D: usize> SolverNd<D> {
             trial: StateNd::default(),
             has_trial: false,
             node_v1: Vec::new(),
+            reduce,
         };
         let mut c = std::mem::take(&mut solver.committed);
         solver
@@ -121,7 +163,12 @@ impl<const D: usize> SolverNd<D> {
 
     /// Weights and nodal fields of a state from its particle fields.
     fn derive_state(&self, s: &mut StateNd<D>) -> Result<(), usize> {
-        kernels::compute_weights(&self.grid, self.shape, &s.x, &self.domain, &mut s.weights)?;
+        if let Err(index) =
+            kernels::compute_weights(&self.grid, self.shape, &s.x, &self.domain, &mut s.weights)
+        {
+            self.take_part_after_failure();
+            return Err(index);
+        }
         kernels::particle_to_grid(
             &s.weights,
             &self.mass,
@@ -136,8 +183,24 @@ impl<const D: usize> SolverNd<D> {
             &mut s.node_v,
             &mut s.node_a,
             &mut s.active,
+            self.reduce.as_deref(),
         );
         Ok(())
+    }
+
+    /// In a split run, the nodal reduction of a pass this process could not make: zeros,
+    /// so that the other processes are not left waiting (the step fails everywhere
+    /// through the controller's agreement on the verdict).
+    fn take_part_after_failure(&self) {
+        if let Some(r) = &self.reduce {
+            let nn = self.grid.n_nodes();
+            kernels::sum_nodal(
+                &**r,
+                &mut vec![0.0; nn],
+                &mut vec![Vector::<D>::zeros(); nn],
+                &mut vec![Vector::<D>::zeros(); nn],
+            );
+        }
     }
 
     /// The grid.
@@ -295,6 +358,9 @@ impl<const D: usize> SolverNd<D> {
             },
         );
         let (t, step) = (c.t, c.step);
+        if fault.is_err() {
+            self.take_part_after_failure();
+        }
         let result = match fault {
             Err(ParticleFault::NonFinite(field, index)) => Err(StepError::NonFinite {
                 field,

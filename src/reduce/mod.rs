@@ -22,25 +22,31 @@
 //! (feature `mpi`, rsmpi) reduces over an MPI communicator with `MPI_Allreduce`.
 //!
 //! What the limits reduce: the controller's minimum covers every limit's proposal (each
-//! rank's limits see only its own particles). Quantities that are sums over the whole
-//! state — the stability tracker's Lanczos dot products, the growth monitor's energies —
-//! need a stepper that exchanges nodal sums across ranks; the reference solver is not
-//! decomposed yet, so those stay per rank (a growth on any rank still rejects everywhere,
-//! through step 2).
+//! rank's limits see only its own particles). The stability tracker
+//! ([`crate::limits_nd::StabilityNd`]) receives the reducer through
+//! [`StepLimit::set_reduce`](crate::limit::StepLimit::set_reduce): it sums each Lanczos
+//! product `A u` and the diagonal of `A` over the processes and agrees on when to refresh,
+//! so its `λmax` is that of the whole problem on every process. The growth monitor
+//! ([`crate::limits_nd::GrowthNd`]) watches each process's own energy: its verdict comes
+//! after the trial, where a process whose trial failed takes no part, so it must not reduce
+//! there; a growth on any process rejects everywhere through step 2.
 //!
-//! # What a decomposed stepper must provide (not implemented yet)
+//! # What a split stepper must provide
 //!
-//! For the stability limit to apply `A = M^{-1/2} K M^{-1/2}` (eq 56 in d dimensions,
-//! [`crate::limits_nd::stiffness`]) across ranks, a rank's view must hold its own particles
-//! and every node they touch: the nodes it owns plus a ghost layer one stencil wide (two
-//! cells for GIMP and quadratic B-splines, one for linear hats) beside its part of the grid,
-//! with the *summed* nodal masses of all ranks on the ghosts as on the owned nodes (the
-//! exchange its particle → grid pass already needs). A product `y = A u` is then: copy `u`
-//! from owners to ghosts; apply the rank's particles; send the ghost rows of `y` to their
-//! owners and add them there. The Lanczos dot products and norms are sums over owned nodes
-//! only, completed with [`Reduce::sum`]; the growth monitor's energies are sums over owned
-//! particles, completed the same way. With these the tracked `λmax` is that of the whole
-//! grid, identical on every rank.
+//! The view of each process holds its own particles and the *global* nodal fields (masses,
+//! velocities, accelerations, active flags): every process must see the same nodes as the
+//! undivided run. Its trial takes part in the same reductions on every process, also when
+//! its own pass fails (it then contributes zeros), and it reports the failure through its
+//! `StepError` as usual. The reference solver does this as a particle decomposition
+//! ([`crate::nd::SolverNd::new_distributed`]): the whole grid on every process, one
+//! reduction of the nodal sums per pass.
+//!
+//! A decomposition of the grid itself (not implemented) would hold the owned nodes plus a
+//! ghost layer one stencil wide (two cells for GIMP and quadratic B-splines, one for linear
+//! hats), exchange ghost sums after each particle → grid pass, migrate particles that leave
+//! a rank's part, and for the stability products copy `u` from owners to ghosts, add the
+//! ghost rows of `y` to their owners, and complete dot products over owned nodes with
+//! [`Reduce::sum`].
 
 /// Global reductions over the processes of one run (module docs). Object safe.
 pub trait Reduce: std::fmt::Debug {
