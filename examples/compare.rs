@@ -61,8 +61,16 @@
 //!
 //! Human table on stdout by default; `--json` prints one JSON document on stdout instead.
 //! Logs go to stderr (`RUST_LOG` filters them, default `warn`).
+//!
+//! A 2D or 3D scenario (`"dim": 2` or `3`) is compared by `compare/nd.rs` on the
+//! d-dimensional reference solver: the same fixed multipliers, mpm-dt, the wall-time
+//! ratios and, on small layouts, the empirical critical step and mpm-dt's mean step as a
+//! fraction of it (the matched-α search and `--tracking` are 1D only). Exit status 1 when
+//! mpm-dt blew up there.
 
 mod common;
+#[path = "compare/nd.rs"]
+mod nd;
 
 use mpm_dt::controller::Controller;
 use mpm_dt::mpm::ReferenceStepper;
@@ -591,6 +599,21 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
+    if let Ok(text) = std::fs::read_to_string(&args.scenario) {
+        if matches!(mpm_dt::nd::scenario::ScenarioNd::dim_of(&text), Ok(2 | 3)) {
+            return match nd::compare(&args.scenario, &text, &args.alphas, args.json) {
+                Ok(true) => ExitCode::SUCCESS,
+                Ok(false) => {
+                    eprintln!("error: mpm-dt did not reach t_end");
+                    ExitCode::from(1)
+                }
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    ExitCode::from(1)
+                }
+            };
+        }
+    }
     let scenario = match Scenario::from_file(&args.scenario) {
         Ok(s) => s,
         Err(e) => {
