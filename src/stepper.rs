@@ -201,9 +201,10 @@ where
         false
     }
 
-    /// Asks the stepper to attach a [`PassSummary`] ([`View::summary`]) to the states its
-    /// passes compute from now on (`true`) or to stop (`false`); returns whether it does.
-    /// The controller always asks. The default does not provide it.
+    /// Asks the stepper to attach a [`PassSummary`] ([`View::summary`]; in 2D/3D a
+    /// [`crate::nd::SummaryNd`], [`crate::nd::ViewNd::summary`]) to the states its passes
+    /// compute from now on (`true`) or to stop (`false`); returns whether it does. The
+    /// controller always asks. The default does not provide it.
     fn provide_summary(&mut self, on: bool) -> bool {
         let _ = on;
         false

@@ -392,6 +392,7 @@ impl MlsMpm {
             node_velocity: vectors(&s.node_v),
             node_acceleration: vectors(&s.node_a),
             node_active: &s.active,
+            summary: None,
         }
     }
 }

@@ -54,8 +54,16 @@ impl<const D: usize> GrowthNd<D> {
         }
     }
 
-    /// `(E, K + U)` of a view (module docs).
+    /// `(E, K + U)` of a view (module docs), from the view's [`SummaryNd`] when the
+    /// stepper offers one (no pass over the particles), else summed here.
+    ///
+    /// [`SummaryNd`]: crate::nd::SummaryNd
     pub fn energies(&self, view: &ViewNd<'_, D>) -> (f64, f64) {
+        // The stepper's totals, when it offers them: no pass of our own.
+        if let Some(s) = &view.summary {
+            let ku = s.kinetic + s.strain;
+            return (ku - self.gravity.dot(&s.first_moment), ku);
+        }
         let mut ku = 0.0;
         let mut pot = 0.0;
         for p in 0..view.n_particles() {

@@ -2,7 +2,7 @@
 //! particle → grid, grid update and grid → particle. Written once for any `D` over the
 //! tensor-product stencil (`nodes_per_axis^D` entries per particle).
 
-use super::{GridNd, MaterialNd, ShapeNd, Tensor, Vector, WeightsNd};
+use super::{GridNd, MaterialNd, ShapeNd, SummaryNd, Tensor, Vector, WeightsNd};
 use crate::grid::Boundary;
 use crate::reduce::Reduce;
 
@@ -194,7 +194,9 @@ pub(super) struct Written<'a, const D: usize> {
 /// stress update, `x += dt v_pⁿ⁺¹` (periodic axes wrap into `[origin, origin + L)`; on a
 /// fixed axis a particle that crossed a wall by less than half a cell is put back on it
 /// with its normal velocity removed, further is an `OutOfDomain` error).
-/// `node_v1` holds `v_iⁿ⁺¹ = v_i + dt a_i`.
+/// `node_v1` holds `v_iⁿ⁺¹ = v_i + dt a_i`. Returns the trial's [`SummaryNd`]: `finite`
+/// always (every written value is checked), the energies and first moment only with
+/// `summarize` (else zeros).
 #[allow(clippy::too_many_arguments)]
 pub(super) fn grid_to_particle<const D: usize>(
     grid: &GridNd<D>,
@@ -205,7 +207,14 @@ pub(super) fn grid_to_particle<const D: usize>(
     dt: f64,
     from: Committed<'_, D>,
     into: Written<'_, D>,
-) -> Result<(), ParticleFault> {
+    summarize: bool,
+) -> Result<SummaryNd<D>, ParticleFault> {
+    let mut summary = SummaryNd {
+        finite: true,
+        kinetic: 0.0,
+        strain: 0.0,
+        first_moment: Vector::<D>::zeros(),
+    };
     for p in 0..from.x.len() {
         let mut acc = Vector::<D>::zeros();
         let mut l = Tensor::<D>::zeros();
@@ -265,6 +274,11 @@ pub(super) fn grid_to_particle<const D: usize>(
         if j <= 0.0 {
             return Err(ParticleFault::Inverted(p, j));
         }
+        if summarize {
+            summary.kinetic += 0.5 * mass[p] * v.norm_squared();
+            summary.strain += material[p].energy(&sigma, &f, volume0[p]);
+            summary.first_moment += x * mass[p];
+        }
         into.x[p] = x;
         into.v[p] = v;
         into.f[p] = f;
@@ -274,5 +288,5 @@ pub(super) fn grid_to_particle<const D: usize>(
         into.lame_lambda[p] = lt;
         into.lame_mu[p] = mt;
     }
-    Ok(())
+    Ok(summary)
 }

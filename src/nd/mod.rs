@@ -21,7 +21,7 @@ pub use material::MaterialNd;
 pub use particles::{ParticlesNd, SetupNdError};
 pub use shape::{AxisStencil, ShapeNd};
 pub use solver::{SolverNd, INACTIVE_MASS_RATIO};
-pub use view::ViewNd;
+pub use view::{SummaryNd, ViewNd};
 pub use weights::{WeightsNd, WeightsNdError};
 
 use nalgebra::{SMatrix, SVector};

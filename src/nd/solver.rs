@@ -13,7 +13,7 @@
 
 use super::kernels::{self, Committed, ParticleFault, Written};
 use super::particles::{ParticlesNd, SetupNdError};
-use super::{GridNd, MaterialNd, ShapeNd, Tensor, Vector, ViewNd, WeightsNd};
+use super::{GridNd, MaterialNd, ShapeNd, SummaryNd, Tensor, Vector, ViewNd, WeightsNd};
 use crate::dimension::{Dim, Dimension};
 use crate::reduce::Reduce;
 use crate::stepper::{StepError, Stepper};
@@ -39,6 +39,8 @@ struct StateNd<const D: usize> {
     node_v: Vec<Vector<D>>,
     node_a: Vec<Vector<D>>,
     active: Vec<bool>,
+    /// Totals over the particles ([`SummaryNd`]), written with them.
+    summary: Option<SummaryNd<D>>,
 }
 
 /// The reference d-dimensional MPM solver.
@@ -60,6 +62,8 @@ pub struct SolverNd<const D: usize> {
     /// The run's reductions when it is split over processes by particle
     /// ([`SolverNd::new_distributed`]).
     reduce: Option<Rc<dyn Reduce>>,
+    /// Whether the trials carry their [`SummaryNd`] ([`Stepper::provide_summary`]).
+    summarize: bool,
 }
 
 impl<const D: usize> SolverNd<D> {
@@ -148,6 +152,7 @@ impl<const D: usize> SolverNd<D> {
             has_trial: false,
             node_v1: Vec::new(),
             reduce,
+            summarize: false,
         };
         let mut c = std::mem::take(&mut solver.committed);
         solver
@@ -186,6 +191,29 @@ impl<const D: usize> SolverNd<D> {
             self.reduce.as_deref(),
         );
         Ok(())
+    }
+
+    /// The totals of a state's particles ([`SummaryNd`]), by a pass of their own (for the
+    /// states the step did not write: the initial one, one set by the user).
+    fn summary_of(&self, s: &StateNd<D>) -> SummaryNd<D> {
+        let finite = [&s.x, &s.v]
+            .iter()
+            .all(|f| f.iter().all(|v| v.iter().all(|c| c.is_finite())))
+            && [&s.sigma, &s.f]
+                .iter()
+                .all(|f| f.iter().all(|t| t.iter().all(|c| c.is_finite())));
+        let mut out = SummaryNd {
+            finite,
+            kinetic: 0.0,
+            strain: 0.0,
+            first_moment: Vector::<D>::zeros(),
+        };
+        for p in 0..s.x.len() {
+            out.kinetic += 0.5 * self.mass[p] * s.v[p].norm_squared();
+            out.strain += self.material[p].energy(&s.sigma[p], &s.f[p], self.volume0[p]);
+            out.first_moment += s.x[p] * self.mass[p];
+        }
+        out
     }
 
     /// In a split run, the nodal reduction of a pass this process could not make: zeros,
@@ -282,6 +310,7 @@ impl<const D: usize> SolverNd<D> {
         c.v.copy_from_slice(v);
         c.sigma.copy_from_slice(sigma);
         let r = self.derive_state(&mut c);
+        c.summary = self.summarize.then(|| self.summary_of(&c));
         self.committed = c;
         self.has_trial = false;
         r.map_err(|index| SetupNdError::OutsideBox {
@@ -310,6 +339,7 @@ impl<const D: usize> SolverNd<D> {
             node_velocity: &s.node_v,
             node_acceleration: &s.node_a,
             node_active: &s.active,
+            summary: s.summary,
         }
     }
 
@@ -356,6 +386,7 @@ impl<const D: usize> SolverNd<D> {
                 lame_lambda: &mut trial.lame_lambda,
                 lame_mu: &mut trial.lame_mu,
             },
+            self.summarize,
         );
         let (t, step) = (c.t, c.step);
         if fault.is_err() {
@@ -383,7 +414,8 @@ impl<const D: usize> SolverNd<D> {
                 step,
                 dt,
             }),
-            Ok(()) => {
+            Ok(summary) => {
+                trial.summary = self.summarize.then_some(summary);
                 trial.t = t + dt;
                 trial.step = step + 1;
                 self.derive_state(&mut trial)
@@ -429,6 +461,17 @@ where
 
     fn reject(&mut self) {
         self.has_trial = false;
+    }
+
+    fn provide_summary(&mut self, on: bool) -> bool {
+        if on && !self.summarize && self.committed.summary.is_none() {
+            self.committed.summary = Some(self.summary_of(&self.committed));
+        }
+        self.summarize = on;
+        if !on {
+            self.committed.summary = None;
+        }
+        true
     }
 
     fn view(&self) -> ViewNd<'_, D> {

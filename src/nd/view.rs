@@ -48,6 +48,24 @@ pub struct ViewNd<'a, const D: usize> {
     pub node_acceleration: &'a [Vector<D>],
     /// Whether a node is active: not constrained and with mass above the solver's threshold.
     pub node_active: &'a [bool],
+    /// Totals the stepper computed in its own pass over the particles, if it offers them
+    /// (optional: `None` makes the limits compute what they need from the slices).
+    pub summary: Option<SummaryNd<D>>,
+}
+
+/// Totals over a state's particles that a stepper can compute while it writes them, so
+/// that the controller and the limits need no pass of their own ([`ViewNd::summary`]).
+/// In a run split over processes ([`crate::reduce`]) they are this process's.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SummaryNd<const D: usize> {
+    /// Every `x`, `v`, `σ`, `F` value of the state is finite (checked by the stepper).
+    pub finite: bool,
+    /// `Σ_p ½ m_p |v_p|²`.
+    pub kinetic: f64,
+    /// The stored elastic energy `Σ_p` of the material's energy density times volume.
+    pub strain: f64,
+    /// `Σ_p m_p x_p` (the gravitational potential is `−g · Σ m x`).
+    pub first_moment: Vector<D>,
 }
 
 impl<const D: usize> ViewNd<'_, D> {
@@ -86,6 +104,10 @@ impl<const D: usize> StateView for ViewNd<'_, D> {
     }
 
     fn first_nonfinite(&self) -> Option<(&'static str, usize, f64)> {
+        // The stepper's own check, when it made one.
+        if self.summary.is_some_and(|s| s.finite) {
+            return None;
+        }
         fn scan<'b, I: Iterator<Item = &'b f64>>(p: usize, it: I) -> Option<(usize, f64)> {
             it.copied().find(|v| !v.is_finite()).map(|v| (p, v))
         }
