@@ -3,7 +3,7 @@
 //! jelly in place of its fluid.
 //!
 //! ```text
-//! cargo run --release --example mls_mpm -- [--grid N] [--t-end T] [--fixed-dt DT] [--find-failure] [--fluid]
+//! cargo run --release --example mls_mpm -- [--grid N] [--t-end T] [--fixed-dt DT] [--find-failure] [--rules] [--fluid]
 //! ```
 //!
 //! The scene: a box `[0, 1]²` of `N×N` cells (default 128) with walls three cells thick,
@@ -12,6 +12,7 @@
 //! particle volume `(h/2)²` — mpm88's setup, whose shipped step is `dt = 2·10⁻⁴`.
 //!
 //! * `--fixed-dt DT` runs the scene with a fixed step;
+//! * `--rules` also runs the rules of thumb `dt = α·h/(c_p + |v|)` for α = 0.3, 0.4, 0.5, 0.9;
 //! * `--find-failure` bisects the fixed step at which the run blows up before `t_end`
 //!   (non-finite values, a particle through a wall, `det F ≤ 0`, or kinetic plus elastic
 //!   energy above 10× the energy the block has to give: its initial kinetic energy plus
@@ -22,7 +23,7 @@
 mod solver;
 
 use mpm_dt::controller::{Controller, ControllerConfig};
-use mpm_dt::limits_nd::standard_limits;
+use mpm_dt::limits_nd::{standard_limits, SoundSpeedNd};
 use mpm_dt::nd::Vector;
 use mpm_dt::Stepper;
 use nalgebra::Vector2;
@@ -85,11 +86,24 @@ fn energy_budget(s: &MlsMpm) -> f64 {
 }
 
 fn run_fixed(scene: Scene, dt: f64) -> FixedRun {
+    run_rule(scene, &|_| Ok(dt))
+}
+
+/// A run whose every step is `rule(state)`, clamped to `t_end` (blow-up criteria as
+/// [`run_fixed`]).
+fn run_rule(scene: Scene, rule: &dyn Fn(&MlsMpm) -> Result<f64, String>) -> FixedRun {
     let mut s = build(scene);
     let budget = energy_budget(&s);
     let start = std::time::Instant::now();
     let mut blew_up = None;
     while s.time() < scene.t_end - 1e-12 {
+        let dt = match rule(&s) {
+            Ok(dt) => dt,
+            Err(e) => {
+                blew_up = Some(e);
+                break;
+            }
+        };
         let step = dt.min(scene.t_end - s.time());
         if let Err(e) = s.try_step(step).and_then(|_| s.accept()) {
             blew_up = Some(e.to_string());
@@ -208,6 +222,7 @@ fn main() -> ExitCode {
     };
     let mut fixed = None;
     let mut failure = false;
+    let mut rules = false;
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
         let mut value = |name: &str| -> Result<f64, String> {
@@ -228,8 +243,12 @@ fn main() -> ExitCode {
                 failure = true;
                 Ok(())
             }
+            "--rules" => {
+                rules = true;
+                Ok(())
+            }
             "--help" | "-h" => {
-                println!("usage: mls_mpm [--grid N] [--t-end T] [--fixed-dt DT] [--find-failure] [--fluid]");
+                println!("usage: mls_mpm [--grid N] [--t-end T] [--fixed-dt DT] [--find-failure] [--rules] [--fluid]");
                 return ExitCode::SUCCESS;
             }
             other => Err(format!("unknown argument {other}")),
@@ -278,6 +297,22 @@ fn main() -> ExitCode {
         r.energy.1,
         r.energy.2
     );
+    if rules {
+        // The rules of thumb: dt = α·h/(c_p + |v|), re-evaluated every step.
+        for alpha in [0.3, 0.4, 0.5, 0.9] {
+            let r = run_rule(scene, &|s: &MlsMpm| {
+                SoundSpeedNd::unit_step(&s.view())
+                    .map(|u| alpha * u)
+                    .map_err(|e| e.to_string())
+            });
+            println!(
+                "alpha = {alpha}: {} steps, {:.2} s wall, {}",
+                r.steps,
+                r.wall_s,
+                r.blew_up.as_deref().unwrap_or("stable")
+            );
+        }
+    }
     let c = run_controlled(scene);
     println!(
         "mpm-dt controller: {} steps ({} rejected), mean dt {:.4e} s ({:.3} h/c_p), min dt {:.4e} s, {:.2} s wall, {}",
