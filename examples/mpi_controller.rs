@@ -28,14 +28,13 @@ use mpi::topology::Communicator;
 use mpm_dt::controller::{Controller, ControllerConfig, Outcome};
 use mpm_dt::limits_nd::standard_limits;
 use mpm_dt::nd::{GridNd, MaterialNd, ParticlesNd, ShapeNd, SolverNd, Vector};
-use mpm_dt::reduce::{MpiReduce, Reduce};
+use mpm_dt::reduce::{MpiReduce, Reduce, Timed};
 use mpm_dt::stepper::StepError;
 use mpm_dt::{Boundary, Stepper, ViewNd};
 use serde_json::json;
-use std::cell::Cell;
 use std::process::ExitCode;
 use std::rc::Rc;
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 /// The reference solver, with a fault injected on request.
 struct Faulty {
@@ -89,50 +88,6 @@ impl Stepper<2> for Faulty {
     }
     fn trial_view(&self) -> Option<ViewNd<'_, 2>> {
         self.inner.trial_view()
-    }
-}
-
-/// Time spent in the reductions and their number, shared with `main`.
-#[derive(Debug, Default)]
-struct ReduceClock {
-    spent: Cell<Duration>,
-    calls: Cell<u64>,
-}
-
-/// [`MpiReduce`] with a stopwatch around every call.
-#[derive(Debug)]
-struct Timed {
-    inner: MpiReduce,
-    clock: Rc<ReduceClock>,
-}
-
-impl Timed {
-    fn time<T>(&self, f: impl FnOnce() -> T) -> T {
-        let start = Instant::now();
-        let out = f();
-        self.clock
-            .spent
-            .set(self.clock.spent.get() + start.elapsed());
-        self.clock.calls.set(self.clock.calls.get() + 1);
-        out
-    }
-}
-
-impl Reduce for Timed {
-    fn rank(&self) -> usize {
-        self.inner.rank()
-    }
-    fn size(&self) -> usize {
-        self.inner.size()
-    }
-    fn min_and_any(&self, value: f64, flag: bool) -> (f64, bool) {
-        self.time(|| self.inner.min_and_any(value, flag))
-    }
-    fn any_flags(&self, flags: &mut [bool]) {
-        self.time(|| self.inner.any_flags(flags))
-    }
-    fn sum(&self, values: &mut [f64]) {
-        self.time(|| self.inner.sum(values))
     }
 }
 
@@ -204,11 +159,8 @@ fn main() -> ExitCode {
     };
     let world = universe.world();
     let (rank, size) = (world.rank() as usize, world.size() as usize);
-    let clock = Rc::new(ReduceClock::default());
-    let reduce: Rc<dyn Reduce> = Rc::new(Timed {
-        inner: MpiReduce::new(world),
-        clock: Rc::clone(&clock),
-    });
+    let clock = Rc::new(Timed::new(MpiReduce::new(world)));
+    let reduce: Rc<dyn Reduce> = clock.clone();
     let solver = match problem(args.cells, Rc::clone(&reduce)) {
         Ok(s) => s,
         Err(e) => {
@@ -263,8 +215,8 @@ fn main() -> ExitCode {
         "energy_local": stepper.inner.total_energy(),
         "error": result.as_ref().err().map(|e| e.to_string()),
         "wall_s": wall_s,
-        "reduce_s": clock.spent.get().as_secs_f64(),
-        "reductions": clock.calls.get(),
+        "reduce_s": clock.spent().as_secs_f64(),
+        "reductions": clock.calls(),
     });
     println!("{line}");
     if let Some(dir) = &args.out {

@@ -25,49 +25,12 @@ use mpm_dt::controller::{Controller, Outcome};
 use mpm_dt::limits_nd::standard_limits;
 use mpm_dt::nd::scenario::ScenarioNd;
 use mpm_dt::nd::Vector;
-use mpm_dt::reduce::{MpiReduce, Reduce};
+use mpm_dt::reduce::{MpiReduce, Reduce, Timed};
 use mpm_dt::{Dim, Dimension, Stepper, ViewNd};
 use serde_json::json;
-use std::cell::Cell;
 use std::process::ExitCode;
 use std::rc::Rc;
-use std::time::{Duration, Instant};
-
-/// [`MpiReduce`] with a stopwatch around every call.
-#[derive(Debug)]
-struct Timed {
-    inner: MpiReduce,
-    spent: Cell<Duration>,
-    calls: Cell<u64>,
-}
-
-impl Timed {
-    fn time<T>(&self, f: impl FnOnce() -> T) -> T {
-        let start = Instant::now();
-        let out = f();
-        self.spent.set(self.spent.get() + start.elapsed());
-        self.calls.set(self.calls.get() + 1);
-        out
-    }
-}
-
-impl Reduce for Timed {
-    fn rank(&self) -> usize {
-        self.inner.rank()
-    }
-    fn size(&self) -> usize {
-        self.inner.size()
-    }
-    fn min_and_any(&self, value: f64, flag: bool) -> (f64, bool) {
-        self.time(|| self.inner.min_and_any(value, flag))
-    }
-    fn any_flags(&self, flags: &mut [bool]) {
-        self.time(|| self.inner.any_flags(flags))
-    }
-    fn sum(&self, values: &mut [f64]) {
-        self.time(|| self.inner.sum(values))
-    }
-}
+use std::time::Instant;
 
 struct Args {
     scenario: String,
@@ -102,7 +65,11 @@ fn parse() -> Result<Args, String> {
     })
 }
 
-fn run<const D: usize>(scenario: &ScenarioNd, args: &Args, reduce: Rc<Timed>) -> Result<(), String>
+fn run<const D: usize>(
+    scenario: &ScenarioNd,
+    args: &Args,
+    reduce: Rc<Timed<MpiReduce>>,
+) -> Result<(), String>
 where
     Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
 {
@@ -145,8 +112,8 @@ where
                 "energy_kinetic": energy[0],
                 "energy_strain": energy[1],
                 "wall_s": wall_s,
-                "reduce_s": reduce.spent.get().as_secs_f64(),
-                "reductions": reduce.calls.get(),
+                "reduce_s": reduce.spent().as_secs_f64(),
+                "reductions": reduce.calls(),
                 "error": result.as_ref().err().map(|e| e.to_string()),
             })
         );
@@ -183,11 +150,7 @@ fn main() -> ExitCode {
         eprintln!("mpi_simulate: MPI could not be initialised");
         return ExitCode::from(1);
     };
-    let reduce = Rc::new(Timed {
-        inner: MpiReduce::new(universe.world()),
-        spent: Cell::new(Duration::ZERO),
-        calls: Cell::new(0),
-    });
+    let reduce = Rc::new(Timed::new(MpiReduce::new(universe.world())));
     let rank = reduce.rank();
     // Every rank reads the file; an unreadable one fails on every rank alike.
     let result = ScenarioNd::from_file(&args.scenario)

@@ -21,7 +21,6 @@
 
 use mpm_dt::controller::{Controller, ControllerConfig, Stats};
 use mpm_dt::limits_nd::{standard_limits, SoundSpeedNd};
-use mpm_dt::nd::problems::PlaneWave;
 use mpm_dt::nd::scenario::ScenarioNd;
 use mpm_dt::nd::SolverNd;
 use mpm_dt::scenario::Scenario;
@@ -97,18 +96,6 @@ fn stats_summary(stats: &Stats) -> Value {
         "dt_max": stats.dt_max,
         "binding": stats.binding,
     })
-}
-
-/// Velocity error `max_p |v_p − v(x_p, t)|∞ / (A c)` against a plane wave.
-fn wave_error<const D: usize>(s: &SolverNd<D>, wave: &PlaneWave<D>) -> f64
-where
-    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
-{
-    let view = s.view();
-    let scale = wave.amplitude.abs() * wave.speed;
-    (0..view.n_particles())
-        .map(|p| (view.v[p] - wave.velocity(&view.x[p], view.t)).amax() / scale)
-        .fold(0.0, f64::max)
 }
 
 fn state_json<const D: usize>(s: &SolverNd<D>) -> Value
@@ -209,7 +196,7 @@ where
         let mut out = json!({
             "t_final": s.time(), "steps_accepted": s.step_count(), "steps_rejected": 0,
             "blew_up": blew_up, "dt_min": dt, "dt_mean": dt, "dt_max": dt, "binding": {},
-            "velocity_error_linf": wave.as_ref().map(|w| wave_error(&s, w)),
+            "velocity_error_linf": wave.as_ref().map(|w| w.velocity_error(&s.view())),
             "energy_initial": e0, "energy_final": e, "error": error,
         });
         out["state"] = state_json(&s);
@@ -257,7 +244,7 @@ where
     let e = s.total_energy();
     out["t_final"] = json!(s.time());
     out["blew_up"] = json!(error.is_some() || !e.is_finite() || e > 10.0 * e0);
-    out["velocity_error_linf"] = json!(wave.as_ref().map(|w| wave_error(&s, w)));
+    out["velocity_error_linf"] = json!(wave.as_ref().map(|w| w.velocity_error(&s.view())));
     out["energy_initial"] = json!(e0);
     out["energy_final"] = json!(e);
     out["wall_s"] = json!(wall);
@@ -268,7 +255,7 @@ where
         let mut rules = Vec::new();
         for alpha in [0.4, 0.5] {
             let (steps, w, blew_up, fs) = run_alpha(template.clone(), alpha, scenario.t_end);
-            let err = wave.as_ref().map(|wv| wave_error(&fs, wv));
+            let err = wave.as_ref().map(|wv| wv.velocity_error(&fs.view()));
             eprintln!(
                 "simulate: alpha {alpha}: {steps} steps, {w:.3} s, blew up {blew_up}, error {err:?}"
             );

@@ -45,17 +45,6 @@ impl Run {
     }
 }
 
-fn wave_error<const D: usize>(s: &SolverNd<D>, wave: &PlaneWave<D>) -> f64
-where
-    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
-{
-    let view = s.view();
-    let scale = wave.amplitude.abs() * wave.speed;
-    (0..view.n_particles())
-        .map(|p| (view.v[p] - wave.velocity(&view.x[p], view.t)).amax() / scale)
-        .fold(0.0, f64::max)
-}
-
 fn grew(e: f64, e0: f64) -> bool {
     !e.is_finite() || e > 10.0 * e0.max(f64::MIN_POSITIVE)
 }
@@ -81,7 +70,9 @@ where
         steps: s.step_count(),
         rejected,
         t_final: s.time(),
-        error: wave.filter(|_| blew_up.is_none()).map(|w| wave_error(s, w)),
+        error: wave
+            .filter(|_| blew_up.is_none())
+            .map(|w| w.velocity_error(&s.view())),
         energy_drift: (e - e0) / e0,
         blew_up,
         wall_s,

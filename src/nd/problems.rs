@@ -143,6 +143,15 @@ impl<const D: usize> PlaneWave<D> {
                 * (self.omega() * t).cos())
     }
 
+    /// The velocity error of a state against this wave, relative to its velocity
+    /// amplitude: `max_p |v_p − v(x_p, t)|∞ / (|A| c)`.
+    pub fn velocity_error(&self, view: &super::ViewNd<'_, D>) -> f64 {
+        let scale = self.amplitude.abs() * self.speed;
+        (0..view.n_particles())
+            .map(|p| (view.v[p] - self.velocity(&view.x[p], view.t)).amax() / scale)
+            .fold(0.0, f64::max)
+    }
+
     /// Exact stress at `x`, `t`.
     pub fn stress(&self, x: &Vector<D>, t: f64) -> Tensor<D> {
         let k = &self.wave_vector;

@@ -81,6 +81,9 @@ impl Reduce for SingleProcess {
     fn sum(&self, _values: &mut [f64]) {}
 }
 
+mod timed;
+pub use timed::Timed;
+
 #[cfg(feature = "mpi")]
 mod mpi_reduce;
 #[cfg(feature = "mpi")]
