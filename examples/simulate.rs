@@ -19,8 +19,10 @@
 //! Errors (a bad scenario, a failed run) print a message on stderr and exit with status 1;
 //! usage errors exit with 2.
 
+mod common;
+
 use mpm_dt::controller::{Controller, ControllerConfig, Stats};
-use mpm_dt::limits_nd::{standard_limits, SoundSpeedNd};
+use mpm_dt::limits_nd::standard_limits;
 use mpm_dt::nd::scenario::ScenarioNd;
 use mpm_dt::nd::SolverNd;
 use mpm_dt::scenario::Scenario;
@@ -133,48 +135,6 @@ where
     None
 }
 
-/// Whether the energy is non-finite or above 10× `e0`.
-fn energy_grew<const D: usize>(s: &SolverNd<D>, e0: f64) -> bool {
-    let e = s.total_energy();
-    !e.is_finite() || e > 10.0 * e0.max(f64::MIN_POSITIVE)
-}
-
-/// A fixed-rule run `dt = α · min_a h_a/(c_p + |v_a|)` to `t_end`: (steps, wall, blew up).
-fn run_alpha<const D: usize>(
-    mut s: SolverNd<D>,
-    alpha: f64,
-    t_end: f64,
-) -> (u64, f64, bool, SolverNd<D>)
-where
-    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
-{
-    let e0 = s.total_energy();
-    let start = Instant::now();
-    let mut blew_up = false;
-    while s.time() < t_end * (1.0 - 1e-14) {
-        let unit = match SoundSpeedNd::unit_step(&s.view()) {
-            Ok(u) => u,
-            Err(_) => {
-                blew_up = true;
-                break;
-            }
-        };
-        let dt = (alpha * unit).min(t_end - s.time());
-        if s.try_step(dt).and_then(|_| s.accept()).is_err() {
-            blew_up = true;
-            break;
-        }
-        // What a fixed-rule code pays per step is the rule itself; the energy check (not
-        // part of the rule) runs every 50 steps and at the end.
-        if s.step_count() % 50 == 0 && energy_grew(&s, e0) {
-            blew_up = true;
-            break;
-        }
-    }
-    blew_up |= energy_grew(&s, e0);
-    (s.step_count(), start.elapsed().as_secs_f64(), blew_up, s)
-}
-
 fn run_nd<const D: usize>(scenario: &ScenarioNd, args: &Args) -> Result<Value, String>
 where
     Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
@@ -254,8 +214,11 @@ where
     if args.compare {
         let mut rules = Vec::new();
         for alpha in [0.4, 0.5] {
-            let (steps, w, blew_up, fs) = run_alpha(template.clone(), alpha, scenario.t_end);
-            let err = wave.as_ref().map(|wv| wv.velocity_error(&fs.view()));
+            let run = common::fixed_rule_nd::run_alpha(template.clone(), alpha, scenario.t_end);
+            let (steps, w, blew_up) = (run.solver.step_count(), run.wall_s, run.blew_up.is_some());
+            let err = wave
+                .as_ref()
+                .map(|wv| wv.velocity_error(&run.solver.view()));
             eprintln!(
                 "simulate: alpha {alpha}: {steps} steps, {w:.3} s, blew up {blew_up}, error {err:?}"
             );

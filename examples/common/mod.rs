@@ -1,8 +1,10 @@
 //! What the examples share: their log subscriber (the library never installs one; an
-//! application chooses its own, as these examples do) and the final-error measurement.
+//! application chooses its own, as these examples do), the final-error measurement and the
+//! fixed rule of thumb on the d-dimensional solver.
 // Each example uses a part of this module.
 #![allow(dead_code)]
 
+pub mod fixed_rule_nd;
 pub mod history;
 pub mod plot;
 

@@ -11,9 +11,10 @@
 //! amplitude `A = 10⁻²`, 4000 steps, `limits_nd::critical`) and the controller's mean step
 //! as a fraction of it.
 
+use crate::common::fixed_rule_nd::{energy_grew, run_alpha};
 use mpm_dt::controller::Controller;
 use mpm_dt::limits_nd::critical::critical_table;
-use mpm_dt::limits_nd::{standard_limits, SoundSpeedNd};
+use mpm_dt::limits_nd::standard_limits;
 use mpm_dt::nd::problems::PlaneWave;
 use mpm_dt::nd::scenario::ScenarioNd;
 use mpm_dt::nd::{SolverNd, Vector};
@@ -45,10 +46,6 @@ impl Run {
     }
 }
 
-fn grew(e: f64, e0: f64) -> bool {
-    !e.is_finite() || e > 10.0 * e0.max(f64::MIN_POSITIVE)
-}
-
 fn finish<const D: usize>(
     policy: String,
     s: &SolverNd<D>,
@@ -62,7 +59,7 @@ where
     Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
 {
     let e = s.total_energy();
-    if blew_up.is_none() && grew(e, e0) {
+    if blew_up.is_none() && energy_grew(e, e0) {
         blew_up = Some(format!("energy {e:.3e} from {e0:.3e}"));
     }
     Run {
@@ -79,37 +76,21 @@ where
     }
 }
 
-fn fixed<const D: usize>(
-    mut s: SolverNd<D>,
-    alpha: f64,
-    t_end: f64,
-    wave: Option<&PlaneWave<D>>,
-) -> Run
+fn fixed<const D: usize>(s: SolverNd<D>, alpha: f64, t_end: f64, wave: Option<&PlaneWave<D>>) -> Run
 where
     Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
 {
     let e0 = s.total_energy();
-    let start = Instant::now();
-    let mut why = None;
-    while s.time() < t_end * (1.0 - 1e-14) {
-        let dt = match SoundSpeedNd::unit_step(&s.view()) {
-            Ok(u) => (alpha * u).min(t_end - s.time()),
-            Err(e) => {
-                why = Some(e.to_string());
-                break;
-            }
-        };
-        if let Err(e) = s.try_step(dt).and_then(|_| s.accept()) {
-            why = Some(e.to_string());
-            break;
-        }
-        if s.step_count() % 50 == 0 && grew(s.total_energy(), e0) {
-            why = Some(format!("energy above 10x at t = {:.4e}", s.time()));
-            break;
-        }
-    }
-    let wall = start.elapsed().as_secs_f64();
-    finish(format!("alpha={alpha}"), &s, e0, wave, why, 0, wall)
+    let run = run_alpha(s, alpha, t_end);
+    finish(
+        format!("alpha={alpha}"),
+        &run.solver,
+        e0,
+        wave,
+        run.blew_up,
+        0,
+        run.wall_s,
+    )
 }
 
 fn controlled<const D: usize>(
@@ -152,7 +133,7 @@ where
         scenario.t_end
     );
     let table = critical_table(&s, Some((1e-2, 4000)));
-    let mut runs: Vec<Run> = alphas
+    let runs: Vec<Run> = alphas
         .iter()
         .map(|&a| fixed(s.clone(), a, scenario.t_end, wave.as_ref()))
         .collect();
@@ -172,7 +153,6 @@ where
         "wall_ratio": wall_ratio,
         "policies": runs.iter().chain(std::iter::once(&ours)).map(Run::json).collect::<Vec<_>>(),
     });
-    runs.push(ours);
     Ok(doc)
 }
 

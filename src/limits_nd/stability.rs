@@ -33,7 +33,7 @@
 //! B-spline weights the stiffness row vanishes with the mass (weight gradients vanish where
 //! the weights do) and a node's mass falling as a body slides over it is harmless. So when
 //! the smallest nodal mass falls, the limit computes `max diag(A)` (one pass over the weight
-//! gradients, [`super::stiffness::diagonal_max`]): if it grew by more than
+//! gradients, [`super::stiffness::diagonal_argmax`]): if it grew by more than
 //! `refresh_modulus`, `λmax` is recomputed; else the cached value is multiplied by that
 //! growth (≥ 1) until the next refresh — a heuristic scaling, not a bound, since the
 //! diagonal only bounds `λmax` from below. The per-step guard is one pass over
@@ -60,7 +60,7 @@
 //! the guard that catches all three: it rejects a step whose energy grows and lowers this
 //! limit's safety for the rest of the run ([`StepLimit::scale_safety`]).
 
-use super::stiffness::{diagonal_argmax_reduced, lanczos_reduced};
+use super::stiffness::{diagonal_argmax, dot, lanczos_reduced};
 use crate::dimension::{Dim, Dimension};
 use crate::limit::{LimitError, Metrics, Proposal, StepLimit};
 use crate::nd::{Vector, ViewNd};
@@ -122,7 +122,7 @@ pub struct StabilityNd<const D: usize> {
     moduli_ref: Vec<(f64, f64)>,
     /// Smallest active nodal mass and active node count at the refresh.
     mass_ref: (f64, usize),
-    /// `max diag(A)` at the refresh ([`super::stiffness::diagonal_max`]).
+    /// `max diag(A)` at the refresh ([`super::stiffness::diagonal_argmax`]).
     diag_ref: f64,
     /// Growth of `max diag(A)` accepted without a refresh since the last one (≥ 1).
     diag_growth: f64,
@@ -198,7 +198,7 @@ impl<const D: usize> StabilityNd<D> {
         }
         if m_min < (1.0 - self.config.refresh_mass) * self.mass_ref.0 {
             // A lighter node: refresh only if some node's diagonal of A grew (module docs).
-            let d = diagonal_argmax_reduced(view, &*self.reduce).0;
+            let d = diagonal_argmax(view, &*self.reduce).0;
             let growth = d / self.diag_ref;
             if growth.is_nan() || growth > growth_limit {
                 return None;
@@ -253,7 +253,7 @@ impl<const D: usize> StabilityNd<D> {
 
     fn refresh(&mut self, view: &ViewNd<'_, D>) -> Result<f64, LimitError> {
         let n = view.n_nodes() * D;
-        let (diag_max, diag_at) = diagonal_argmax_reduced(view, &*self.reduce);
+        let (diag_max, diag_at) = diagonal_argmax(view, &*self.reduce);
         let mut start: Vec<f64> = if self.ritz.len() == n {
             // Warm start, nudged so that it is never orthogonal to a new top mode.
             self.ritz
@@ -267,7 +267,7 @@ impl<const D: usize> StabilityNd<D> {
         // Plus the unit velocity at the stiffest node for its mass: a mode localised on a
         // light node, far from the previous top mode, is then in the Krylov space from the
         // first product.
-        let scale = dot_norm(&start);
+        let scale = dot(&start, &start).sqrt();
         if diag_at < n && scale > 0.0 {
             start[diag_at] += scale;
         }
@@ -302,11 +302,6 @@ impl<const D: usize> StabilityNd<D> {
         self.lambda = Some(lambda);
         Ok(lambda)
     }
-}
-
-/// Euclidean norm.
-fn dot_norm(v: &[f64]) -> f64 {
-    v.iter().map(|x| x * x).sum::<f64>().sqrt()
 }
 
 /// A cold start close to the top of the spectrum: the nodal checkerboard

@@ -87,24 +87,13 @@ pub fn apply_scaled<const D: usize>(
 /// K_(ia),(ia) = Σ_p V_p [(λ_t + μ_t) g_a² + μ_t |g|²],   A_(ia),(ia) = K_(ia),(ia) / m_i.
 /// ```
 ///
-/// One pass over the particles' weight gradients, about a third of an [`apply`].
-pub fn diagonal_max<const D: usize>(view: &ViewNd<'_, D>) -> f64 {
-    diagonal_argmax(view).0
-}
-
-/// [`diagonal_max`] and where it is: the index `D·i + a` of node `i`, component `a` (0 when
-/// no node is active).
-pub fn diagonal_argmax<const D: usize>(view: &ViewNd<'_, D>) -> (f64, usize) {
-    diagonal_argmax_reduced(view, &SingleProcess)
-}
-
-/// [`diagonal_argmax`] for a run split over processes: the view holds this process's
-/// particles and the global nodal masses; the particles' diagonal sums are completed with
-/// `reduce` ([`crate::reduce`]), so every process returns the same value.
-pub fn diagonal_argmax_reduced<const D: usize>(
-    view: &ViewNd<'_, D>,
-    reduce: &dyn Reduce,
-) -> (f64, usize) {
+/// One pass over the particles' weight gradients, about a third of an [`apply`]. Returns
+/// the largest entry and where it is: the index `D·i + a` of node `i`, component `a` (0
+/// when no node is active). In a run split over processes ([`crate::reduce`]) the view
+/// holds this process's particles and the global nodal masses; the diagonal sums are
+/// completed with `reduce`, so every process returns the same (pass
+/// [`SingleProcess`](crate::reduce::SingleProcess) otherwise).
+pub fn diagonal_argmax<const D: usize>(view: &ViewNd<'_, D>, reduce: &dyn Reduce) -> (f64, usize) {
     let mut diag = vec![0.0; view.n_nodes() * D];
     let w = &view.weights;
     for p in 0..view.n_particles() {
@@ -265,7 +254,8 @@ pub fn lanczos_reduced<const D: usize>(
     }
 }
 
-fn dot(a: &[f64], b: &[f64]) -> f64 {
+/// The Euclidean inner product.
+pub(super) fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 

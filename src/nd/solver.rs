@@ -14,7 +14,7 @@
 use super::kernels::{self, Committed, ParticleFault, Written};
 use super::particles::{ParticlesNd, SetupNdError};
 use super::{GridNd, MaterialNd, ShapeNd, SummaryNd, Tensor, Vector, ViewNd, WeightsNd};
-use crate::dimension::{Dim, Dimension};
+use crate::dimension::{Dim, Dimension, StateView};
 use crate::reduce::Reduce;
 use crate::stepper::{StepError, Stepper};
 use std::rc::Rc;
@@ -196,24 +196,21 @@ impl<const D: usize> SolverNd<D> {
     /// The totals of a state's particles ([`SummaryNd`]), by a pass of their own (for the
     /// states the step did not write: the initial one, one set by the user).
     fn summary_of(&self, s: &StateNd<D>) -> SummaryNd<D> {
-        let finite = [&s.x, &s.v]
-            .iter()
-            .all(|f| f.iter().all(|v| v.iter().all(|c| c.is_finite())))
-            && [&s.sigma, &s.f]
-                .iter()
-                .all(|f| f.iter().all(|t| t.iter().all(|c| c.is_finite())));
-        let mut out = SummaryNd {
-            finite,
-            kinetic: 0.0,
-            strain: 0.0,
-            first_moment: Vector::<D>::zeros(),
+        // The view's own scan, not a summary the state may still carry.
+        let view = ViewNd {
+            summary: None,
+            ..self.view_of(s)
         };
-        for p in 0..s.x.len() {
-            out.kinetic += 0.5 * self.mass[p] * s.v[p].norm_squared();
-            out.strain += self.material[p].energy(&s.sigma[p], &s.f[p], self.volume0[p]);
-            out.first_moment += s.x[p] * self.mass[p];
+        SummaryNd {
+            finite: view.first_nonfinite().is_none(),
+            kinetic: self.kinetic_of(s),
+            strain: self.strain_of(s),
+            first_moment: s
+                .x
+                .iter()
+                .zip(&self.mass)
+                .fold(Vector::<D>::zeros(), |acc, (x, &m)| acc + x * m),
         }
-        out
     }
 
     /// In a split run, the nodal reduction of a pass this process could not make: zeros,
@@ -267,9 +264,11 @@ impl<const D: usize> SolverNd<D> {
 
     /// Kinetic energy `Σ ½ m_p |v_p|²` of the committed state.
     pub fn kinetic_energy(&self) -> f64 {
-        self.committed
-            .v
-            .iter()
+        self.kinetic_of(&self.committed)
+    }
+
+    fn kinetic_of(&self, s: &StateNd<D>) -> f64 {
+        s.v.iter()
             .zip(&self.mass)
             .map(|(v, &m)| 0.5 * m * v.norm_squared())
             .sum()
@@ -277,9 +276,12 @@ impl<const D: usize> SolverNd<D> {
 
     /// Stored elastic energy of the committed state ([`MaterialNd::energy`]).
     pub fn strain_energy(&self) -> f64 {
-        let c = &self.committed;
-        (0..c.x.len())
-            .map(|p| self.material[p].energy(&c.sigma[p], &c.f[p], self.volume0[p]))
+        self.strain_of(&self.committed)
+    }
+
+    fn strain_of(&self, s: &StateNd<D>) -> f64 {
+        (0..s.x.len())
+            .map(|p| self.material[p].energy(&s.sigma[p], &s.f[p], self.volume0[p]))
             .sum()
     }
 
