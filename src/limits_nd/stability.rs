@@ -49,10 +49,10 @@
 //! one; it is not a certificate (the 1D tracker's `LDLᵀ` certificate is not carried over).
 //! The frozen-particle `λmax` is a rough function of the positions: on a jittered block
 //! drifting across a periodic grid (`tests/stability_tracking_nd.rs`) the true value rose
-//! up to 1.10× (linear hat), 1.50× (GIMP) and 1.22× (B-spline) above the tracked one
-//! within half a cell of motion, and refreshing every eighth of a cell still left 1.34×
-//! with GIMP — so a step of `0.9·√(2/λ)` can exceed the frozen critical step by up to
-//! about 10 % for a few steps. A refreshed value is the Lanczos Ritz value, which is the
+//! up to 1.09× (linear hat), 1.49× (GIMP) and 1.21× (B-spline) above the tracked one
+//! within half a cell of motion (refreshing every eighth of a cell still left 1.34× with
+//! GIMP, measured with a Lanczos tolerance of 10⁻³) — so a step of `0.9·√(2/λ)` can exceed
+//! the frozen critical step by up to about 10 % for a few steps. A refreshed value is the Lanczos Ritz value, which is the
 //! top eigenvalue unless a new mode far from the warm start has just risen above the old
 //! one (measured: at worst 3 % low). Frozen-particle analysis itself
 //! overestimates the true limit when particles move (docs/design.md: with quadratic
