@@ -1,11 +1,13 @@
-//! One controlled run across MPI ranks, with faults injected: the particles of a 2D
-//! problem are split over the ranks (`SolverNd::new_distributed`) and the controllers
-//! agree, through `reduce::MpiReduce`, on one step and one verdict per attempt.
+//! One controlled run across MPI ranks, with faults injected: a 2D problem is split over
+//! the ranks — its grid cut into slabs (`SolverNd::new_slab`, the default) or its
+//! particles (`--decomposition particles`, `SolverNd::new_distributed`) — and the
+//! controllers agree, through `reduce::MpiReduce`, on one step and one verdict per attempt.
 //!
 //! ```text
 //! cargo build --release --features mpi --example mpi_controller
 //! mpirun -np 4 target/release/examples/mpi_controller [--cells N] [--t-end T]
-//!        [--fail-rank R --fail-step K [--once]] [--abort-rank R --fail-step K] [--out DIR]
+//!        [--fail-rank R --fail-step K [--once]] [--abort-rank R --fail-step K]
+//!        [--throw-rank R --fail-step K [--once]] [--decomposition slab|particles] [--out DIR]
 //! ```
 //!
 //! The problem: a plane P wave on a periodic unit square of `N×N` cells (default 16), GIMP,
@@ -13,7 +15,10 @@
 //! `R`'s trials non-finite from step `K` on (every rank must reject, and the run ends with too
 //! many rejections everywhere), with `--once` only its first attempt at step `K` (every rank
 //! rejects once and goes on); `--abort-rank R` makes its trial fail with an error no smaller
-//! step can fix (that rank ends with it, the others with "another process failed").
+//! step can fix (that rank ends with it, the others with "another process failed");
+//! `--throw-rank R` makes rank `R` take its trial at step `K` with a step 10⁴ times too
+//! large, so that the solver's own trial fails on that rank only (its particles' `F`
+//! inverts or their values overflow) while it takes part in the exchanges of the trial.
 //!
 //! Every rank prints one JSON line on stdout: its rank, a digest of the accepted steps' `dt`
 //! bits (equal digests: the same steps, bit for bit), the rejections by cause, the final time and its error,
@@ -43,6 +48,8 @@ struct Faulty {
     fail_from: Option<(u64, bool)>,
     /// Only the first attempt at that step fails.
     once: bool,
+    /// The trial at this step is taken with a step 10⁴ times too large.
+    throw_at: Option<u64>,
 }
 
 impl Stepper<2> for Faulty {
@@ -54,7 +61,11 @@ impl Stepper<2> for Faulty {
     }
     fn try_step(&mut self, dt: f64) -> Result<(), StepError> {
         // The trial runs in any case: its reductions need every rank.
-        let trial = self.inner.try_step(dt);
+        let thrown = self.throw_at == Some(self.inner.step_count());
+        if thrown && self.once {
+            self.throw_at = None;
+        }
+        let trial = self.inner.try_step(if thrown { dt * 1e4 } else { dt });
         match self.fail_from {
             Some((k, fatal)) if self.inner.step_count() >= k => {
                 if self.once {
@@ -95,6 +106,8 @@ struct Args {
     cells: usize,
     t_end: f64,
     fail: Option<(usize, bool)>,
+    throw: Option<usize>,
+    slab: bool,
     fail_step: u64,
     once: bool,
     out: Option<std::path::PathBuf>,
@@ -105,6 +118,8 @@ fn parse() -> Result<Args, String> {
         cells: 16,
         t_end: 1.0,
         fail: None,
+        throw: None,
+        slab: true,
         fail_step: 5,
         once: false,
         out: None,
@@ -117,6 +132,16 @@ fn parse() -> Result<Args, String> {
             "--t-end" => a.t_end = value()?.parse().map_err(|e| format!("--t-end: {e}"))?,
             "--fail-rank" => a.fail = Some((value()?.parse().map_err(|e| format!("{e}"))?, false)),
             "--abort-rank" => a.fail = Some((value()?.parse().map_err(|e| format!("{e}"))?, true)),
+            "--throw-rank" => a.throw = Some(value()?.parse().map_err(|e| format!("{e}"))?),
+            "--decomposition" => {
+                a.slab = match value()?.as_str() {
+                    "slab" => true,
+                    "particles" => false,
+                    other => {
+                        return Err(format!("--decomposition: slab or particles, not {other}"))
+                    }
+                }
+            }
             "--fail-step" => a.fail_step = value()?.parse().map_err(|e| format!("{e}"))?,
             "--once" => a.once = true,
             "--out" => a.out = Some(value()?.into()),
@@ -129,7 +154,7 @@ fn parse() -> Result<Args, String> {
     Ok(a)
 }
 
-fn problem(cells: usize, reduce: Rc<dyn Reduce>) -> Result<SolverNd<2>, String> {
+fn problem(cells: usize, slab: bool, reduce: Rc<dyn Reduce>) -> Result<SolverNd<2>, String> {
     let grid = GridNd::<2>::new([Boundary::Periodic; 2], [cells; 2], [1.0; 2]);
     let material = MaterialNd::LinearElastic {
         youngs_modulus: 1.0,
@@ -141,8 +166,13 @@ fn problem(cells: usize, reduce: Rc<dyn Reduce>) -> Result<SolverNd<2>, String> 
         let x = particles.x[p][0];
         particles.v[p] = Vector::<2>::new(1e-2 * c * (2.0 * std::f64::consts::PI * x).sin(), 0.0);
     }
-    SolverNd::new_distributed(grid, ShapeNd::Gimp, particles, Vector::<2>::zeros(), reduce)
-        .map_err(|e| e.to_string())
+    let gravity = Vector::<2>::zeros();
+    if slab {
+        SolverNd::new_slab(grid, ShapeNd::Gimp, particles, gravity, reduce)
+    } else {
+        SolverNd::new_distributed(grid, ShapeNd::Gimp, particles, gravity, reduce)
+    }
+    .map_err(|e| e.to_string())
 }
 
 fn main() -> ExitCode {
@@ -161,7 +191,7 @@ fn main() -> ExitCode {
     let (rank, size) = (world.rank() as usize, world.size() as usize);
     let clock = Rc::new(Timed::new(MpiReduce::new(world)));
     let reduce: Rc<dyn Reduce> = clock.clone();
-    let solver = match problem(args.cells, Rc::clone(&reduce)) {
+    let solver = match problem(args.cells, args.slab, Rc::clone(&reduce)) {
         Ok(s) => s,
         Err(e) => {
             eprintln!("mpi_controller: rank {rank}: {e}");
@@ -175,6 +205,7 @@ fn main() -> ExitCode {
             .filter(|&(r, _)| r == rank)
             .map(|(_, fatal)| (args.fail_step, fatal)),
         once: args.once,
+        throw_at: args.throw.filter(|&r| r == rank).map(|_| args.fail_step),
     };
     let config = ControllerConfig::default();
     let limits = standard_limits::<2>(&config, Vector::<2>::zeros());

@@ -3,21 +3,29 @@
 //! ```text
 //! cargo build --release --features mpi --example mpi_simulate
 //! mpirun -np 4 target/release/examples/mpi_simulate --scenario scenarios/nd/gimp_2d_1e5.json
-//!        [--t-end T] [--out DIR]
+//!        [--t-end T] [--decomposition slab|particles] [--out DIR]
 //! ```
 //!
-//! Every rank reads the scenario and keeps its block of particles
-//! (`SolverNd::new_distributed`: a particle decomposition with the grid on every rank; the
-//! nodal sums are completed with one `MPI_Allreduce` per pass). The controller's limits
-//! see the rank's particles and the global grid; the stability tracker's Lanczos products
-//! are summed over the ranks, and the controller agrees on every step and verdict
-//! (`mpm_dt::reduce`). So 1, 2 and 4 ranks take the same steps, up to the order of the
-//! floating-point sums.
+//! Every rank reads the scenario and keeps its part:
+//!
+//! * `slab` (the default, `SolverNd::new_slab`): the grid is cut into slabs along its last
+//!   axis; each rank holds its slab's nodes plus two ghost planes each side and the
+//!   particles inside it, completes the nodal sums with its neighbours after each particle
+//!   → grid pass and hands particles that leave its slab to the neighbour;
+//! * `particles` (`SolverNd::new_distributed`): a block of particles per rank, the whole
+//!   grid on every rank, the nodal sums completed with one `MPI_Allreduce` per pass.
+//!
+//! The controller's limits see the rank's particles and nodes; the stability tracker's
+//! Lanczos products and dot products are completed over the ranks, and the controller
+//! agrees on every step and verdict (`mpm_dt::reduce`). So 1, 2 and 4 ranks take the same
+//! steps, up to the order of the floating-point sums.
 //!
 //! Rank 0 prints the summary (JSON): particles, ranks, steps, rejections, mean `dt`, the
 //! final time, the total energy, wall time and the time spent in the controller's and the
-//! solver's reductions. With `--out DIR` every rank writes `DIR/rank-R.json`: its steps'
-//! `dt` (hex bits) and its particles' final positions and velocities, in particle order.
+//! solver's reductions and exchanges, and how many particles ended on another rank than
+//! they started on. With `--out DIR` every rank writes `DIR/rank-R.json`: its steps' `dt`
+//! (hex bits) and its particles' run-wide indices (`id`) and final positions and
+//! velocities.
 //! Exit status 0 when the run reached `t_end`, 1 when it ended with an error, 2 on bad
 //! arguments.
 
@@ -35,6 +43,7 @@ use std::time::Instant;
 struct Args {
     scenario: String,
     t_end: Option<f64>,
+    slab: bool,
     out: Option<std::path::PathBuf>,
 }
 
@@ -42,6 +51,7 @@ fn parse() -> Result<Args, String> {
     let mut scenario = None;
     let mut t_end = None;
     let mut out = None;
+    let mut slab = true;
     let mut it = std::env::args().skip(1);
     while let Some(flag) = it.next() {
         let mut value = || it.next().ok_or(format!("{flag} needs a value"));
@@ -55,12 +65,22 @@ fn parse() -> Result<Args, String> {
                 t_end = Some(t);
             }
             "--out" => out = Some(value()?.into()),
+            "--decomposition" => {
+                slab = match value()?.as_str() {
+                    "slab" => true,
+                    "particles" => false,
+                    other => {
+                        return Err(format!("--decomposition: slab or particles, not {other}"))
+                    }
+                }
+            }
             other => return Err(format!("unknown argument {other}")),
         }
     }
     Ok(Args {
         scenario: scenario.ok_or("--scenario FILE is required")?,
         t_end,
+        slab,
         out,
     })
 }
@@ -75,9 +95,14 @@ where
 {
     let (rank, size) = (reduce.rank(), reduce.size());
     let shared: Rc<dyn Reduce> = reduce.clone();
-    let (mut solver, _) = scenario
-        .build_distributed::<D>(Rc::clone(&shared))
-        .map_err(|e| e.to_string())?;
+    let (mut solver, _) = if args.slab {
+        scenario.build_slab::<D>(Rc::clone(&shared))
+    } else {
+        scenario.build_distributed::<D>(Rc::clone(&shared))
+    }
+    .map_err(|e| e.to_string())?;
+    let started_here: std::collections::HashSet<u64> =
+        solver.particle_ids().iter().copied().collect();
     let mut n_total = [solver.n_particles() as f64];
     shared.sum(&mut n_total);
     let config = scenario.controller_config().map_err(|e| e.to_string())?;
@@ -96,7 +121,16 @@ where
         })
         .map(|_| ());
     let wall_s = start.elapsed().as_secs_f64();
-    let mut energy = [solver.kinetic_energy(), solver.strain_energy()];
+    let arrived = solver
+        .particle_ids()
+        .iter()
+        .filter(|id| !started_here.contains(id))
+        .count();
+    let mut energy = [
+        solver.kinetic_energy(),
+        solver.strain_energy(),
+        arrived as f64,
+    ];
     shared.sum(&mut energy);
     let stats = controller.stats();
     if rank == 0 {
@@ -114,6 +148,8 @@ where
                 "wall_s": wall_s,
                 "reduce_s": reduce.spent().as_secs_f64(),
                 "reductions": reduce.calls(),
+                "decomposition": if args.slab { "slab" } else { "particles" },
+                "particles_on_another_rank": energy[2],
                 "error": result.as_ref().err().map(|e| e.to_string()),
             })
         );
@@ -125,6 +161,9 @@ where
         let record = json!({
             "rank": rank,
             "dt_bits": dts,
+            "id": solver.particle_ids(),
+            "arrived": arrived,
+            "rejected": stats.rejected,
             "x": flat(view.x),
             "v": flat(view.v),
             "error": result.as_ref().err().map(|e| e.to_string()),
@@ -141,7 +180,8 @@ fn main() -> ExitCode {
         Ok(a) => a,
         Err(e) => {
             eprintln!(
-                "mpi_simulate: {e}\nusage: mpi_simulate --scenario FILE [--t-end T] [--out DIR]"
+                "mpi_simulate: {e}\nusage: mpi_simulate --scenario FILE [--t-end T] \
+                 [--decomposition slab|particles] [--out DIR]"
             );
             return ExitCode::from(2);
         }

@@ -393,6 +393,7 @@ impl MlsMpm {
             node_acceleration: vectors(&s.node_a),
             node_active: &s.active,
             summary: None,
+            split: None,
         }
     }
 }

@@ -60,7 +60,7 @@
 //! the guard that catches all three: it rejects a step whose energy grows and lowers this
 //! limit's safety for the rest of the run ([`StepLimit::scale_safety`]).
 
-use super::stiffness::{diagonal_argmax, dot, lanczos_reduced};
+use super::stiffness::{diagonal_argmax, lanczos_reduced, NodalSpace};
 use crate::dimension::{Dim, Dimension};
 use crate::limit::{LimitError, Metrics, Proposal, StepLimit};
 use crate::nd::{Vector, ViewNd};
@@ -172,26 +172,50 @@ impl<const D: usize> StabilityNd<D> {
         (vol * (D as f64 * l + 2.0 * m), vol * m)
     }
 
-    /// Smallest active nodal mass and the number of active nodes.
-    fn node_mass_summary(view: &ViewNd<'_, D>) -> (f64, usize) {
-        view.node_mass
+    /// Smallest active nodal mass and the number of active nodes (on a decomposed grid,
+    /// [`ViewNd::split`]: the smallest over the processes, and whether any node is active;
+    /// one reduction).
+    fn node_mass_summary(&self, view: &ViewNd<'_, D>) -> (f64, usize) {
+        let local = view
+            .node_mass
             .iter()
             .zip(view.node_active)
             .filter(|(_, &a)| a)
-            .fold((f64::INFINITY, 0), |(m, n), (&mi, _)| (m.min(mi), n + 1))
+            .fold((f64::INFINITY, 0), |(m, n), (&mi, _)| (m.min(mi), n + 1));
+        if view.split.is_none() {
+            return local;
+        }
+        let (m, none) = self.reduce.min_and_any(local.0, false);
+        let _ = none;
+        (m, usize::from(m.is_finite()))
+    }
+
+    /// Where particle `p`'s reference values are kept: its run-wide identity on a
+    /// decomposed grid (particles move between processes), else its index.
+    #[inline]
+    fn key(view: &ViewNd<'_, D>, p: usize) -> usize {
+        view.split.as_ref().map_or(p, |s| s.particle_id[p] as usize)
+    }
+
+    /// Number of particle references kept: the whole run's on a decomposed grid.
+    fn n_refs(view: &ViewNd<'_, D>) -> usize {
+        view.split
+            .as_ref()
+            .map_or(view.n_particles(), |s| s.n_particles_total)
     }
 
     /// `None` when the cached `λmax` must be recomputed, else the factor `r ≥ 1` it is
     /// multiplied by for the moduli's growth since the refresh (module docs).
     fn staleness(&mut self, view: &ViewNd<'_, D>) -> Option<f64> {
+        // First, as every process must make the same reductions.
+        let (m_min, active) = self.node_mass_summary(view);
         if self.lambda.is_none()
             || self.age >= self.config.max_age
-            || self.x_ref.len() != view.n_particles()
+            || self.x_ref.len() != Self::n_refs(view)
             || self.ritz.len() != view.n_nodes() * D
         {
             return None;
         }
-        let (m_min, active) = Self::node_mass_summary(view);
         let growth_limit = 1.0 + self.config.refresh_modulus;
         if active == 0 {
             return None;
@@ -206,7 +230,7 @@ impl<const D: usize> StabilityNd<D> {
             self.diag_growth = self.diag_growth.max(growth);
             self.mass_ref.0 = m_min;
         }
-        let grid = view.grid;
+        let grid = view.split.as_ref().map_or(view.grid, |s| s.whole);
         let h = grid.h;
         let lim = self.config.refresh_cells;
         // On a periodic axis a particle that wrapped around shows a jump of one box length:
@@ -217,7 +241,8 @@ impl<const D: usize> StabilityNd<D> {
         });
         let mut growth: f64 = 1.0;
         for p in 0..view.n_particles() {
-            let dx = view.x[p] - self.x_ref[p];
+            let key = Self::key(view, p);
+            let dx = view.x[p] - self.x_ref[key];
             for a in 0..D {
                 if dx[a].abs() <= lim * h[a] {
                     continue;
@@ -232,7 +257,7 @@ impl<const D: usize> StabilityNd<D> {
                 }
             }
             let (bulk, shear) = Self::moduli(view, p);
-            let (bulk_ref, shear_ref) = self.moduli_ref[p];
+            let (bulk_ref, shear_ref) = self.moduli_ref[key];
             let r_bulk = bulk / bulk_ref;
             let r_shear = if shear_ref > 0.0 {
                 shear / shear_ref
@@ -251,25 +276,66 @@ impl<const D: usize> StabilityNd<D> {
         Some(growth.max(self.diag_growth))
     }
 
+    /// Keeps the positions and moduli of the analysed state. On a decomposed grid the
+    /// particles of every process, by run-wide identity (one reduction of
+    /// `n_total·(D + 2)` numbers), as particles move between processes before the next
+    /// comparison; this costs `n_total·(D + 2)` numbers of memory on every process.
+    fn store_references(&mut self, view: &ViewNd<'_, D>) {
+        let Some(split) = &view.split else {
+            self.x_ref = view.x.to_vec();
+            self.moduli_ref = (0..view.n_particles())
+                .map(|p| Self::moduli(view, p))
+                .collect();
+            return;
+        };
+        let n = split.n_particles_total;
+        let w = D + 2;
+        let mut buf = vec![0.0; n * w];
+        for p in 0..view.n_particles() {
+            let k = split.particle_id[p] as usize * w;
+            let (bulk, shear) = Self::moduli(view, p);
+            buf[k..k + D].copy_from_slice(view.x[p].as_slice());
+            buf[k + D] = bulk;
+            buf[k + D + 1] = shear;
+        }
+        self.reduce.sum(&mut buf);
+        self.x_ref = buf
+            .chunks_exact(w)
+            .map(|c| Vector::<D>::from_column_slice(&c[..D]))
+            .collect();
+        self.moduli_ref = buf.chunks_exact(w).map(|c| (c[D], c[D + 1])).collect();
+    }
+
     fn refresh(&mut self, view: &ViewNd<'_, D>) -> Result<f64, LimitError> {
         let n = view.n_nodes() * D;
+        let space = NodalSpace::new(view, &*self.reduce);
+        // Component `c` of the local vectors is component `global(c)` of the whole grid's:
+        // starts are functions of the latter, the same however the grid is split.
+        let global = |c: usize| space.global(c / D) * D + c % D;
+        let n_global = (space.global_nodes() * D) as f64;
         let (diag_max, diag_at) = diagonal_argmax(view, &*self.reduce);
         let mut start: Vec<f64> = if self.ritz.len() == n {
             // Warm start, nudged so that it is never orthogonal to a new top mode.
             self.ritz
                 .iter()
                 .enumerate()
-                .map(|(i, v)| v + 0.1 * (((i * 7919) % 97) as f64 / 97.0 - 0.5) / (n as f64).sqrt())
+                .map(|(i, v)| {
+                    v + 0.1 * (((global(i) * 7919) % 97) as f64 / 97.0 - 0.5) / n_global.sqrt()
+                })
                 .collect()
         } else {
-            checkerboard_start(view)
+            checkerboard_start(view, &space)
         };
         // Plus the unit velocity at the stiffest node for its mass: a mode localised on a
         // light node, far from the previous top mode, is then in the Krylov space from the
         // first product.
-        let scale = dot(&start, &start).sqrt();
-        if diag_at < n && scale > 0.0 {
-            start[diag_at] += scale;
+        let scale = space.dot(&start, &start).sqrt();
+        if scale > 0.0 {
+            for (c, value) in start.iter_mut().enumerate() {
+                if global(c) == diag_at {
+                    *value += scale;
+                }
+            }
         }
         let r = lanczos_reduced(
             view,
@@ -289,11 +355,8 @@ impl<const D: usize> StabilityNd<D> {
             });
         }
         self.ritz = r.vector;
-        self.x_ref = view.x.to_vec();
-        self.moduli_ref = (0..view.n_particles())
-            .map(|p| Self::moduli(view, p))
-            .collect();
-        self.mass_ref = Self::node_mass_summary(view);
+        self.store_references(view);
+        self.mass_ref = self.node_mass_summary(view);
         self.diag_ref = diag_max;
         self.diag_growth = 1.0;
         self.age = 0;
@@ -306,12 +369,18 @@ impl<const D: usize> StabilityNd<D> {
 
 /// A cold start close to the top of the spectrum: the nodal checkerboard
 /// `(−1)^(Σ_a j_a)` in every component (the highest-wavenumber mode, which carries `λmax` on
-/// uniform layouts), plus a small seeded perturbation so that no mode is missed.
-fn checkerboard_start<const D: usize>(view: &ViewNd<'_, D>) -> Vec<f64> {
+/// uniform layouts), plus a small seeded perturbation so that no mode is missed; both
+/// functions of the node in the whole grid.
+fn checkerboard_start<const D: usize>(
+    view: &ViewNd<'_, D>,
+    space: &NodalSpace<'_, '_, D>,
+) -> Vec<f64> {
     let n = view.n_nodes();
+    let whole = view.split.as_ref().map_or(view.grid, |s| s.whole);
     let mut out = Vec::with_capacity(n * D);
-    for i in 0..n {
-        let j = view.grid.lattice_of(i);
+    for local in 0..n {
+        let i = space.global(local);
+        let j = whole.lattice_of(i);
         let sign = if j.iter().sum::<i64>().rem_euclid(2) == 0 {
             1.0
         } else {

@@ -94,6 +94,7 @@ pub fn apply_scaled<const D: usize>(
 /// completed with `reduce`, so every process returns the same (pass
 /// [`SingleProcess`](crate::reduce::SingleProcess) otherwise).
 pub fn diagonal_argmax<const D: usize>(view: &ViewNd<'_, D>, reduce: &dyn Reduce) -> (f64, usize) {
+    let space = NodalSpace::new(view, reduce);
     let mut diag = vec![0.0; view.n_nodes() * D];
     let w = &view.weights;
     for p in 0..view.n_particles() {
@@ -107,20 +108,151 @@ pub fn diagonal_argmax<const D: usize>(view: &ViewNd<'_, D>, reduce: &dyn Reduce
             }
         }
     }
-    reduce.sum(&mut diag);
-    let mut best: (f64, usize) = (0.0, 0);
-    for i in 0..view.n_nodes() {
-        if view.node_active[i] {
-            for a in 0..D {
-                let d = diag[i * D + a] / view.node_mass[i];
-                // A NaN is picked up and then kept, so that it propagates.
-                if d.is_nan() || (!best.0.is_nan() && d > best.0) {
-                    best = (d, i * D + a);
-                }
+    space.complete(&mut diag);
+    // The largest entry over the whole grid, then the lowest whole-grid index among the
+    // entries within `NEAR_TIE` of it: sums completed in another order (a split run)
+    // differ in the last bits, and uniform layouts have many equal entries, so a strict
+    // argmax would pick a different node on a different split.
+    let entry = |i: usize, a: usize| diag[i * D + a] / view.node_mass[i];
+    let counted = |i: usize| view.node_active[i] && space.owns(i);
+    let mut largest = 0.0f64;
+    for i in (0..view.n_nodes()).filter(|&i| counted(i)) {
+        for a in 0..D {
+            let d = entry(i, a);
+            // A NaN is picked up and then kept, so that it propagates.
+            if d.is_nan() || (!largest.is_nan() && d > largest) {
+                largest = d;
             }
         }
     }
-    best
+    let largest = space.agree_on_max(largest);
+    let mut at = usize::MAX;
+    for i in (0..view.n_nodes()).filter(|&i| counted(i)) {
+        for a in 0..D {
+            let d = entry(i, a);
+            let near = if largest.is_nan() {
+                d.is_nan()
+            } else {
+                d >= largest * (1.0 - NEAR_TIE)
+            };
+            if near {
+                at = at.min(space.global(i) * D + a);
+            }
+        }
+    }
+    (largest, space.agree_on_min_index(at))
+}
+
+/// Relative closeness below which two diagonal entries count as tied
+/// ([`diagonal_argmax`]).
+const NEAR_TIE: f64 = 1e-9;
+
+/// How the nodal vectors of a view are completed and contracted when the run is split
+/// over processes ([`crate::reduce`]): by the view's halo and over owned nodes when the
+/// grid is decomposed ([`ViewNd::split`]); by a sum over the processes of whole-grid
+/// vectors when the particles are split and the grid is not; trivially on one process.
+pub struct NodalSpace<'v, 'a, const D: usize> {
+    view: &'v ViewNd<'a, D>,
+    reduce: &'v dyn Reduce,
+}
+
+impl<'v, 'a, const D: usize> NodalSpace<'v, 'a, D> {
+    /// The nodal space of `view` over the processes of `reduce`.
+    pub fn new(view: &'v ViewNd<'a, D>, reduce: &'v dyn Reduce) -> Self {
+        Self { view, reduce }
+    }
+
+    /// Completes a sum of this process's particles' contributions (`D` per node).
+    pub fn complete(&self, y: &mut [f64]) {
+        match &self.view.split {
+            Some(s) => s.halo.complete(y, D),
+            None => self.reduce.sum(y),
+        }
+    }
+
+    /// Whether this process counts local node `i` in sums over nodes.
+    pub fn owns(&self, i: usize) -> bool {
+        self.view.split.as_ref().is_none_or(|s| s.owned[i])
+    }
+
+    /// Index in the whole grid of local node `i`.
+    pub fn global(&self, i: usize) -> usize {
+        self.view
+            .split
+            .as_ref()
+            .map_or(i, |s| s.global_node[i] as usize)
+    }
+
+    /// Number of nodes of the whole grid.
+    pub fn global_nodes(&self) -> usize {
+        self.view
+            .split
+            .as_ref()
+            .map_or(self.view.n_nodes(), |s| s.whole.n_nodes())
+    }
+
+    /// `aᵀb` over the whole grid, for each `a` in `left` (one reduction in all).
+    pub fn dots(&self, left: &[&[f64]], b: &[f64]) -> Vec<f64> {
+        let Some(split) = &self.view.split else {
+            return left.iter().map(|a| dot(a, b)).collect();
+        };
+        let mut out: Vec<f64> = left
+            .iter()
+            .map(|a| {
+                let mut sum = 0.0;
+                for (i, &own) in split.owned.iter().enumerate() {
+                    if own {
+                        for c in i * D..(i + 1) * D {
+                            sum += a[c] * b[c];
+                        }
+                    }
+                }
+                sum
+            })
+            .collect();
+        self.reduce.sum(&mut out);
+        out
+    }
+
+    /// `aᵀb` over the whole grid.
+    pub fn dot(&self, a: &[f64], b: &[f64]) -> f64 {
+        self.dots(&[a], b)[0]
+    }
+
+    /// The largest of the processes' values (a NaN anywhere wins); the same on every
+    /// process.
+    fn agree_on_max(&self, mine: f64) -> f64 {
+        if self.view.split.is_none() {
+            return mine;
+        }
+        let (neg, nan) = self
+            .reduce
+            .min_and_any(if mine.is_nan() { 0.0 } else { -mine }, mine.is_nan());
+        if nan {
+            f64::NAN
+        } else {
+            -neg
+        }
+    }
+
+    /// The smallest of the processes' indices (`usize::MAX` for none; 0 when no process
+    /// has one).
+    fn agree_on_min_index(&self, mine: usize) -> usize {
+        let value = if mine == usize::MAX {
+            f64::INFINITY
+        } else {
+            mine as f64
+        };
+        let (at, _) = match self.view.split {
+            Some(_) => self.reduce.min_and_any(value, false),
+            None => (value, false),
+        };
+        if at.is_finite() {
+            at as usize
+        } else {
+            0
+        }
+    }
 }
 
 /// The dense `A` (module docs), `d·n_nodes` square, for small problems and tests.
@@ -201,7 +333,8 @@ pub fn lanczos_reduced<const D: usize>(
             }
         }
     }
-    let norm = dot(&q, &q).sqrt();
+    let space = NodalSpace::new(view, reduce);
+    let norm = space.dot(&q, &q).sqrt();
     if !(norm > 0.0 && norm.is_finite()) {
         return LanczosResult {
             lambda: 0.0,
@@ -219,18 +352,27 @@ pub fn lanczos_reduced<const D: usize>(
     let mut settled_runs = 0;
     for k in 0..max_iter.max(1) {
         apply_scaled(view, &inv_sqrt_m, &q, &mut w);
-        reduce.sum(&mut w);
-        let a = dot(&q, &w);
+        space.complete(&mut w);
+        let a = space.dot(&q, &w);
         basis.push(q.clone());
         alpha.push(a);
-        // Full reorthogonalisation (twice is enough).
+        // Full reorthogonalisation (twice is enough): modified Gram–Schmidt on an
+        // undivided grid; classical (one reduction per pass) on a decomposed one.
         for _ in 0..2 {
-            for b in &basis {
-                let c = dot(b, &w);
-                w.iter_mut().zip(b).for_each(|(x, y)| *x -= c * y);
+            if view.split.is_some() {
+                let refs: Vec<&[f64]> = basis.iter().map(|b| b.as_slice()).collect();
+                let cs = space.dots(&refs, &w);
+                for (b, c) in basis.iter().zip(cs) {
+                    w.iter_mut().zip(b).for_each(|(x, y)| *x -= c * y);
+                }
+            } else {
+                for b in &basis {
+                    let c = dot(b, &w);
+                    w.iter_mut().zip(b).for_each(|(x, y)| *x -= c * y);
+                }
             }
         }
-        let bnorm = dot(&w, &w).sqrt();
+        let bnorm = space.dot(&w, &w).sqrt();
         let (theta, y) = tridiagonal_top(&alpha, &beta);
         let residual = bnorm * y.last().copied().unwrap_or(0.0).abs();
         let settled = (theta - best.0).abs() <= 0.1 * tol * theta.abs();
@@ -249,7 +391,7 @@ pub fn lanczos_reduced<const D: usize>(
     LanczosResult {
         lambda: best.0,
         residual: best.1,
-        vector: ritz(&basis, &best.2),
+        vector: ritz(&basis, &best.2, &space),
         applications: alpha.len(),
     }
 }
@@ -292,13 +434,13 @@ fn tridiagonal_top(alpha: &[f64], beta: &[f64]) -> (f64, Vec<f64>) {
     )
 }
 
-fn ritz(basis: &[Vec<f64>], y: &[f64]) -> Vec<f64> {
+fn ritz<const D: usize>(basis: &[Vec<f64>], y: &[f64], space: &NodalSpace<'_, '_, D>) -> Vec<f64> {
     let n = basis[0].len();
     let mut v = vec![0.0; n];
     for (b, &c) in basis.iter().zip(y) {
         v.iter_mut().zip(b).for_each(|(x, z)| *x += c * z);
     }
-    let norm = dot(&v, &v).sqrt();
+    let norm = space.dot(&v, &v).sqrt();
     if norm > 0.0 {
         v.iter_mut().for_each(|x| *x /= norm);
     }

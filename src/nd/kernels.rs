@@ -73,6 +73,11 @@ pub(super) fn compute_weights<const D: usize>(
     Ok(())
 }
 
+/// Completes the nodal sums `(Σ S m, Σ S m v, −Σ V σ ∇S)` over the processes of a split
+/// run (nothing on one process).
+pub(super) type NodalCompletion<'a, const D: usize> =
+    dyn Fn(&mut Vec<f64>, &mut Vec<Vector<D>>, &mut Vec<Vector<D>>) + 'a;
+
 /// Particle → grid at one state (docs/design.md, "USL step in d dimensions"):
 /// `m_i = Σ S m_p`, `v_i = Σ S m_p v_p / m_i`,
 /// `a_i = (−Σ V_p σ_p ∇S_ip)/m_i + g` with `V_p = det(F_p) V⁰_p`; nodes that are
@@ -92,7 +97,7 @@ pub(super) fn particle_to_grid<const D: usize>(
     node_v: &mut Vec<Vector<D>>,
     node_a: &mut Vec<Vector<D>>,
     active: &mut Vec<bool>,
-    reduce: Option<&dyn Reduce>,
+    complete: &NodalCompletion<'_, D>,
 ) {
     let nn = weights.n_nodes();
     node_mass.clear();
@@ -117,9 +122,8 @@ pub(super) fn particle_to_grid<const D: usize>(
             node_a[i] += vs * g;
         }
     }
-    if let Some(r) = reduce {
-        sum_nodal(r, node_mass, node_v, node_a);
-    }
+    // The other processes' sums, in a split run.
+    complete(node_mass, node_v, node_a);
     active.clear();
     active.resize(nn, false);
     for i in 0..nn {

@@ -8,10 +8,12 @@
 mod grid;
 mod kernels;
 mod material;
+mod migration;
 mod particles;
 pub mod problems;
 pub mod scenario;
 mod shape;
+mod slab;
 mod solver;
 mod view;
 mod weights;
@@ -20,8 +22,9 @@ pub use grid::GridNd;
 pub use material::MaterialNd;
 pub use particles::{ParticlesNd, SetupNdError};
 pub use shape::{AxisStencil, ShapeNd};
+pub use slab::MIN_CELLS as MIN_SLAB_CELLS;
 pub use solver::{SolverNd, INACTIVE_MASS_RATIO};
-pub use view::{SummaryNd, ViewNd};
+pub use view::{NodalHalo, SplitNd, SummaryNd, ViewNd};
 pub use weights::{WeightsNd, WeightsNdError};
 
 use nalgebra::{SMatrix, SVector};

@@ -216,4 +216,17 @@ pub enum SetupNdError {
     /// The gravity vector is not finite.
     #[error("gravity is not finite")]
     Gravity,
+    /// The grid's last axis has too few cells to give every process a slab.
+    #[error(
+        "{cells} cells along the last axis cannot be split into slabs of at least \
+         {min_cells} cells over {processes} processes"
+    )]
+    Decomposition {
+        /// Cells along the last axis.
+        cells: usize,
+        /// Number of processes.
+        processes: usize,
+        /// Fewest cells per slab.
+        min_cells: usize,
+    },
 }

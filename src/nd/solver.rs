@@ -13,7 +13,8 @@
 
 use super::kernels::{self, Committed, ParticleFault, Written};
 use super::particles::{ParticlesNd, SetupNdError};
-use super::{GridNd, MaterialNd, ShapeNd, SummaryNd, Tensor, Vector, ViewNd, WeightsNd};
+use super::slab::SlabNd;
+use super::{GridNd, MaterialNd, ShapeNd, SplitNd, SummaryNd, Tensor, Vector, ViewNd, WeightsNd};
 use crate::dimension::{Dim, Dimension, StateView};
 use crate::reduce::Reduce;
 use crate::stepper::{StepError, Stepper};
@@ -22,18 +23,31 @@ use std::rc::Rc;
 /// Relative nodal-mass threshold: nodes with `m_i ≤ 1e-14 · min_p m_p` are inactive.
 pub const INACTIVE_MASS_RATIO: f64 = 1e-14;
 
+/// The fields of the particles that a step does not change. They travel with the
+/// particles between processes ([`SolverNd::new_slab`]); a state shares them with the
+/// state it came from unless particles moved between processes.
+#[derive(Clone, Debug, Default)]
+pub(super) struct CarriedNd<const D: usize> {
+    pub mass: Vec<f64>,
+    pub volume0: Vec<f64>,
+    pub domain: Vec<Vector<D>>,
+    pub material: Vec<MaterialNd>,
+    /// Each particle's index in the whole run.
+    pub id: Vec<u64>,
+}
+
 /// One state of the solver.
 #[derive(Clone, Debug, Default)]
-struct StateNd<const D: usize> {
+pub(super) struct StateNd<const D: usize> {
     t: f64,
     step: u64,
-    x: Vec<Vector<D>>,
-    v: Vec<Vector<D>>,
-    sigma: Vec<Tensor<D>>,
-    f: Vec<Tensor<D>>,
-    density: Vec<f64>,
-    lame_lambda: Vec<f64>,
-    lame_mu: Vec<f64>,
+    pub x: Vec<Vector<D>>,
+    pub v: Vec<Vector<D>>,
+    pub sigma: Vec<Tensor<D>>,
+    pub f: Vec<Tensor<D>>,
+    pub density: Vec<f64>,
+    pub lame_lambda: Vec<f64>,
+    pub lame_mu: Vec<f64>,
     weights: WeightsNd<D>,
     node_mass: Vec<f64>,
     node_v: Vec<Vector<D>>,
@@ -41,18 +55,18 @@ struct StateNd<const D: usize> {
     active: Vec<bool>,
     /// Totals over the particles ([`SummaryNd`]), written with them.
     summary: Option<SummaryNd<D>>,
+    /// The fields a step does not change.
+    pub carried: Rc<CarriedNd<D>>,
 }
 
 /// The reference d-dimensional MPM solver.
 #[derive(Clone, Debug)]
 pub struct SolverNd<const D: usize> {
+    /// The grid whose nodes the nodal fields hold: the whole grid, or this process's
+    /// window of it ([`Self::new_slab`]).
     grid: GridNd<D>,
     shape: ShapeNd,
     gravity: Vector<D>,
-    mass: Vec<f64>,
-    volume0: Vec<f64>,
-    domain: Vec<Vector<D>>,
-    material: Vec<MaterialNd>,
     constrained: Vec<bool>,
     threshold: f64,
     committed: StateNd<D>,
@@ -62,6 +76,10 @@ pub struct SolverNd<const D: usize> {
     /// The run's reductions when it is split over processes by particle
     /// ([`SolverNd::new_distributed`]).
     reduce: Option<Rc<dyn Reduce>>,
+    /// This process's slab when the grid is decomposed ([`SolverNd::new_slab`]).
+    slab: Option<SlabNd<D>>,
+    /// Number of particles over all processes.
+    n_total: usize,
     /// Whether the trials carry their [`SummaryNd`] ([`Stepper::provide_summary`]).
     summarize: bool,
 }
@@ -77,7 +95,8 @@ impl<const D: usize> SolverNd<D> {
     ) -> Result<Self, SetupNdError> {
         particles.validate(&grid, shape)?;
         let min_mass = particles.mass.iter().copied().fold(f64::INFINITY, f64::min);
-        Self::build(grid, shape, particles, gravity, min_mass, None)
+        let n = particles.len();
+        Self::build(grid, shape, particles, gravity, min_mass, None, None, n)
     }
 
     /// This process's part of a run split over the processes of `reduce` by particle
@@ -90,8 +109,8 @@ impl<const D: usize> SolverNd<D> {
     /// make the same calls (steps, [`Self::set_velocity_and_stress`]) together.
     ///
     /// This is a particle decomposition with a replicated grid: memory for the grid and
-    /// the reduction grow with the grid, not with the share of it a process works on (a
-    /// decomposition of the grid itself is not implemented).
+    /// the reduction grow with the grid, not with the share of it a process works on
+    /// ([`Self::new_slab`] decomposes the grid).
     pub fn new_distributed(
         grid: GridNd<D>,
         shape: ShapeNd,
@@ -101,10 +120,56 @@ impl<const D: usize> SolverNd<D> {
     ) -> Result<Self, SetupNdError> {
         particles.validate(&grid, shape)?;
         let min_mass = particles.mass.iter().copied().fold(f64::INFINITY, f64::min);
+        let n = particles.len();
+        let first = reduce.rank().min(reduce.size()) * n / reduce.size().max(1);
         let block = particles.block(reduce.rank(), reduce.size());
-        Self::build(grid, shape, block, gravity, min_mass, Some(reduce))
+        let ids = (first as u64..).take(block.len()).collect();
+        let mut solver = Self::build(grid, shape, block, gravity, min_mass, Some(reduce), None, n)?;
+        Rc::make_mut(&mut solver.committed.carried).id = ids;
+        Ok(solver)
     }
 
+    /// This process's part of a run whose grid is decomposed into slabs along its last
+    /// axis over the processes of `reduce` (module docs of `nd::slab`): every process
+    /// passes the *whole* set of particles and keeps those in its slab; it holds its own
+    /// node planes plus two ghost planes each side, completes the nodal sums with its
+    /// neighbours after each particle → grid pass, and hands particles that leave its slab
+    /// to the neighbour that owns them. Memory and work per process scale with its slab;
+    /// the communication per step is two shifts of four node planes and of the moving
+    /// particles (plus the controller's reductions). The view ([`ViewNd::split`]) holds
+    /// this process's particles and window of nodes; its [`SummaryNd`] is the whole
+    /// run's. Every process must make the same calls together. The last axis needs at
+    /// least [`MIN_SLAB_CELLS`](super::MIN_SLAB_CELLS) cells per process.
+    pub fn new_slab(
+        grid: GridNd<D>,
+        shape: ShapeNd,
+        particles: ParticlesNd<D>,
+        gravity: Vector<D>,
+        reduce: Rc<dyn Reduce>,
+    ) -> Result<Self, SetupNdError> {
+        particles.validate(&grid, shape)?;
+        let min_mass = particles.mass.iter().copied().fold(f64::INFINITY, f64::min);
+        let n = particles.len();
+        let slab = SlabNd::new(grid, Rc::clone(&reduce))?;
+        let mine: Vec<usize> = (0..n)
+            .filter(|&p| slab.owns(particles.x[p][D - 1]))
+            .collect();
+        let pick = |p: &usize| *p;
+        let own = ParticlesNd {
+            x: mine.iter().map(|p| particles.x[pick(p)]).collect(),
+            v: mine.iter().map(|p| particles.v[pick(p)]).collect(),
+            mass: mine.iter().map(|p| particles.mass[pick(p)]).collect(),
+            volume: mine.iter().map(|p| particles.volume[pick(p)]).collect(),
+            domain: mine.iter().map(|p| particles.domain[pick(p)]).collect(),
+            material: mine.iter().map(|p| particles.material[pick(p)]).collect(),
+        };
+        let local = slab.local().clone();
+        let mut solver = Self::build(local, shape, own, gravity, min_mass, None, Some(slab), n)?;
+        Rc::make_mut(&mut solver.committed.carried).id = mine.iter().map(|&p| p as u64).collect();
+        Ok(solver)
+    }
+
+    #[allow(clippy::too_many_arguments)]
     fn build(
         grid: GridNd<D>,
         shape: ShapeNd,
@@ -112,14 +177,23 @@ impl<const D: usize> SolverNd<D> {
         gravity: Vector<D>,
         min_mass: f64,
         reduce: Option<Rc<dyn Reduce>>,
+        slab: Option<SlabNd<D>>,
+        n_total: usize,
     ) -> Result<Self, SetupNdError> {
         if gravity.iter().any(|g| !g.is_finite()) {
             return Err(SetupNdError::Gravity);
         }
         let n = particles.len();
-        let constrained = (0..grid.n_nodes())
-            .map(|i| grid.is_constrained(i))
-            .collect();
+        let constrained = match &slab {
+            Some(s) => s
+                .global_node()
+                .iter()
+                .map(|&g| s.whole().is_constrained(g as usize))
+                .collect(),
+            None => (0..grid.n_nodes())
+                .map(|i| grid.is_constrained(i))
+                .collect(),
+        };
         let (lame_lambda, lame_mu): (Vec<f64>, Vec<f64>) =
             particles.material.iter().map(|m| m.tangent(1.0)).unzip();
         let committed = StateNd {
@@ -135,16 +209,19 @@ impl<const D: usize> SolverNd<D> {
             lame_lambda,
             lame_mu,
             weights: WeightsNd::new(grid.n_nodes(), shape.width(D)),
+            carried: Rc::new(CarriedNd {
+                mass: particles.mass,
+                volume0: particles.volume,
+                domain: particles.domain,
+                material: particles.material,
+                id: (0..n as u64).collect(),
+            }),
             ..StateNd::default()
         };
         let mut solver = Self {
             grid,
             shape,
             gravity,
-            mass: particles.mass,
-            volume0: particles.volume,
-            domain: particles.domain,
-            material: particles.material,
             constrained,
             threshold: INACTIVE_MASS_RATIO * min_mass,
             committed,
@@ -152,11 +229,13 @@ impl<const D: usize> SolverNd<D> {
             has_trial: false,
             node_v1: Vec::new(),
             reduce,
+            slab,
+            n_total,
             summarize: false,
         };
         let mut c = std::mem::take(&mut solver.committed);
         solver
-            .derive_state(&mut c)
+            .derive_state(&mut c, false)
             .map_err(|index| SetupNdError::OutsideBox {
                 index,
                 axis: 0,
@@ -166,18 +245,42 @@ impl<const D: usize> SolverNd<D> {
         Ok(solver)
     }
 
-    /// Weights and nodal fields of a state from its particle fields.
-    fn derive_state(&self, s: &mut StateNd<D>) -> Result<(), usize> {
-        if let Err(index) =
-            kernels::compute_weights(&self.grid, self.shape, &s.x, &self.domain, &mut s.weights)
-        {
+    /// The whole grid: boundaries, walls and periodic wraps.
+    fn whole(&self) -> &GridNd<D> {
+        self.slab.as_ref().map_or(&self.grid, |s| s.whole())
+    }
+
+    /// Weights and nodal fields of a state from its particle fields. With `failed` (this
+    /// process's trial failed before) it only takes part in the exchanges of a split run,
+    /// with zeros, so that the other processes are not left waiting.
+    fn derive_state(&self, s: &mut StateNd<D>, failed: bool) -> Result<(), usize> {
+        let fault = if failed {
+            Ok(())
+        } else {
+            kernels::compute_weights(
+                &self.grid,
+                self.shape,
+                &s.x,
+                &s.carried.domain,
+                &mut s.weights,
+            )
+        };
+        if failed || fault.is_err() {
             self.take_part_after_failure();
-            return Err(index);
+            return fault;
         }
+        let complete = |m: &mut Vec<f64>, v: &mut Vec<Vector<D>>, a: &mut Vec<Vector<D>>| {
+            if let Some(r) = &self.reduce {
+                kernels::sum_nodal(&**r, m, v, a);
+            }
+            if let Some(slab) = &self.slab {
+                slab.complete_nodal(m, v, a);
+            }
+        };
         kernels::particle_to_grid(
             &s.weights,
-            &self.mass,
-            &self.volume0,
+            &s.carried.mass,
+            &s.carried.volume0,
             &s.v,
             &s.sigma,
             &s.f,
@@ -188,7 +291,7 @@ impl<const D: usize> SolverNd<D> {
             &mut s.node_v,
             &mut s.node_a,
             &mut s.active,
-            self.reduce.as_deref(),
+            &complete,
         );
         Ok(())
     }
@@ -201,36 +304,65 @@ impl<const D: usize> SolverNd<D> {
             summary: None,
             ..self.view_of(s)
         };
-        SummaryNd {
+        let summary = SummaryNd {
             finite: view.first_nonfinite().is_none(),
             kinetic: self.kinetic_of(s),
             strain: self.strain_of(s),
             first_moment: s
                 .x
                 .iter()
-                .zip(&self.mass)
+                .zip(&s.carried.mass)
                 .fold(Vector::<D>::zeros(), |acc, (x, &m)| acc + x * m),
+        };
+        self.whole_run_summary(summary)
+    }
+
+    /// In a grid-decomposed run the totals of every process (particles move between
+    /// them): one reduction. Otherwise `summary` itself.
+    fn whole_run_summary(&self, summary: SummaryNd<D>) -> SummaryNd<D> {
+        let Some(slab) = &self.slab else {
+            return summary;
+        };
+        let mut buf = vec![
+            f64::from(u8::from(!summary.finite)),
+            summary.kinetic,
+            summary.strain,
+        ];
+        buf.extend(summary.first_moment.iter());
+        slab.reduce().sum(&mut buf);
+        SummaryNd {
+            finite: buf[0] == 0.0,
+            kinetic: buf[1],
+            strain: buf[2],
+            first_moment: Vector::<D>::from_fn(|a, _| buf[3 + a]),
         }
     }
 
-    /// In a split run, the nodal reduction of a pass this process could not make: zeros,
+    /// In a split run, the nodal exchange of a pass this process could not make: zeros,
     /// so that the other processes are not left waiting (the step fails everywhere
     /// through the controller's agreement on the verdict).
     fn take_part_after_failure(&self) {
+        let nn = self.grid.n_nodes();
+        let zeros = || {
+            (
+                vec![0.0; nn],
+                vec![Vector::<D>::zeros(); nn],
+                vec![Vector::<D>::zeros(); nn],
+            )
+        };
         if let Some(r) = &self.reduce {
-            let nn = self.grid.n_nodes();
-            kernels::sum_nodal(
-                &**r,
-                &mut vec![0.0; nn],
-                &mut vec![Vector::<D>::zeros(); nn],
-                &mut vec![Vector::<D>::zeros(); nn],
-            );
+            let (mut m, mut v, mut a) = zeros();
+            kernels::sum_nodal(&**r, &mut m, &mut v, &mut a);
+        }
+        if let Some(slab) = &self.slab {
+            let (mut m, mut v, mut a) = zeros();
+            slab.complete_nodal(&mut m, &mut v, &mut a);
         }
     }
 
-    /// The grid.
+    /// The (whole) grid.
     pub fn grid(&self) -> &GridNd<D> {
-        &self.grid
+        self.whole()
     }
 
     /// The weight functions.
@@ -238,19 +370,30 @@ impl<const D: usize> SolverNd<D> {
         self.shape
     }
 
-    /// Number of particles.
+    /// Number of this process's particles (all of them in an undivided run).
     pub fn n_particles(&self) -> usize {
-        self.mass.len()
+        self.committed.x.len()
+    }
+
+    /// Number of particles over all processes.
+    pub fn n_particles_total(&self) -> usize {
+        self.n_total
     }
 
     /// Particle materials.
     pub fn materials(&self) -> &[MaterialNd] {
-        &self.material
+        &self.committed.carried.material
+    }
+
+    /// Each particle's index in the whole run (the order of the particles the run was
+    /// set up from): `0..n` in an undivided run.
+    pub fn particle_ids(&self) -> &[u64] {
+        &self.committed.carried.id
     }
 
     /// Total mass `Σ m_p`.
     pub fn total_mass(&self) -> f64 {
-        self.mass.iter().sum()
+        self.committed.carried.mass.iter().sum()
     }
 
     /// Total momentum `Σ m_p v_p` of the committed state.
@@ -258,7 +401,7 @@ impl<const D: usize> SolverNd<D> {
         self.committed
             .v
             .iter()
-            .zip(&self.mass)
+            .zip(&self.committed.carried.mass)
             .fold(Vector::<D>::zeros(), |acc, (v, &m)| acc + v * m)
     }
 
@@ -269,7 +412,7 @@ impl<const D: usize> SolverNd<D> {
 
     fn kinetic_of(&self, s: &StateNd<D>) -> f64 {
         s.v.iter()
-            .zip(&self.mass)
+            .zip(&s.carried.mass)
             .map(|(v, &m)| 0.5 * m * v.norm_squared())
             .sum()
     }
@@ -280,8 +423,9 @@ impl<const D: usize> SolverNd<D> {
     }
 
     fn strain_of(&self, s: &StateNd<D>) -> f64 {
+        let c = &s.carried;
         (0..s.x.len())
-            .map(|p| self.material[p].energy(&s.sigma[p], &s.f[p], self.volume0[p]))
+            .map(|p| c.material[p].energy(&s.sigma[p], &s.f[p], c.volume0[p]))
             .sum()
     }
 
@@ -311,7 +455,7 @@ impl<const D: usize> SolverNd<D> {
         let mut c = std::mem::take(&mut self.committed);
         c.v.copy_from_slice(v);
         c.sigma.copy_from_slice(sigma);
-        let r = self.derive_state(&mut c);
+        let r = self.derive_state(&mut c, false);
         c.summary = self.summarize.then(|| self.summary_of(&c));
         self.committed = c;
         self.has_trial = false;
@@ -323,6 +467,14 @@ impl<const D: usize> SolverNd<D> {
     }
 
     fn view_of<'a>(&'a self, s: &'a StateNd<D>) -> ViewNd<'a, D> {
+        let split = self.slab.as_ref().map(|slab| SplitNd {
+            whole: slab.whole(),
+            global_node: slab.global_node(),
+            owned: slab.owned(),
+            particle_id: &s.carried.id,
+            n_particles_total: self.n_total,
+            halo: slab,
+        });
         ViewNd {
             t: s.t,
             step: s.step,
@@ -331,8 +483,8 @@ impl<const D: usize> SolverNd<D> {
             v: &s.v,
             sigma: &s.sigma,
             f: &s.f,
-            volume0: &self.volume0,
-            mass: &self.mass,
+            volume0: &s.carried.volume0,
+            mass: &s.carried.mass,
             lame_lambda: &s.lame_lambda,
             lame_mu: &s.lame_mu,
             density: &s.density,
@@ -342,10 +494,13 @@ impl<const D: usize> SolverNd<D> {
             node_acceleration: &s.node_a,
             node_active: &s.active,
             summary: s.summary,
+            split,
         }
     }
 
-    /// Computes the trial state of step `dt` into the trial buffer.
+    /// Computes the trial state of step `dt` into the trial buffer. In a split run every
+    /// process makes the same exchanges in the same order, also when its own part fails:
+    /// migration (grid-decomposed), the nodal sums, the whole run's totals.
     fn trial_step(&mut self, dt: f64) -> Result<(), StepError> {
         self.has_trial = false;
         let c = &self.committed;
@@ -364,11 +519,12 @@ impl<const D: usize> SolverNd<D> {
         trial.density.resize(n, 0.0);
         trial.lame_lambda.resize(n, 0.0);
         trial.lame_mu.resize(n, 0.0);
+        trial.carried = Rc::clone(&c.carried);
         let fault = kernels::grid_to_particle(
-            &self.grid,
-            &self.material,
-            &self.mass,
-            &self.volume0,
+            self.whole(),
+            &c.carried.material,
+            &c.carried.mass,
+            &c.carried.volume0,
             &self.node_v1,
             dt,
             Committed {
@@ -391,10 +547,7 @@ impl<const D: usize> SolverNd<D> {
             self.summarize,
         );
         let (t, step) = (c.t, c.step);
-        if fault.is_err() {
-            self.take_part_after_failure();
-        }
-        let result = match fault {
+        let mut result = match fault {
             Err(ParticleFault::NonFinite(field, index)) => Err(StepError::NonFinite {
                 field,
                 index,
@@ -416,20 +569,44 @@ impl<const D: usize> SolverNd<D> {
                 step,
                 dt,
             }),
-            Ok(summary) => {
-                trial.summary = self.summarize.then_some(summary);
-                trial.t = t + dt;
-                trial.step = step + 1;
-                self.derive_state(&mut trial)
-                    .map_err(|index| StepError::OutOfDomain {
-                        index,
-                        x: trial.x[index][0],
-                        t,
-                        step,
-                        dt,
-                    })
-            }
+            Ok(summary) => Ok(summary),
         };
+        if let Some(slab) = &self.slab {
+            let moved = super::migration::migrate(slab, &mut trial, result.is_err());
+            if let (Ok(_), Err(index)) = (&result, moved) {
+                // It jumped past the neighbouring slab: a blow-up, as leaving the box is.
+                result = Err(StepError::OutOfDomain {
+                    index,
+                    x: trial.x[index][D - 1],
+                    t,
+                    step,
+                    dt,
+                });
+            }
+        }
+        let derived = self.derive_state(&mut trial, result.is_err());
+        if self.summarize {
+            let mine = result.as_ref().ok().copied().unwrap_or(SummaryNd {
+                finite: false,
+                kinetic: 0.0,
+                strain: 0.0,
+                first_moment: Vector::<D>::zeros(),
+            });
+            trial.summary = Some(self.whole_run_summary(mine));
+        } else {
+            trial.summary = None;
+        }
+        let result = result.and_then(|_| {
+            derived.map_err(|index| StepError::OutOfDomain {
+                index,
+                x: trial.x[index][0],
+                t,
+                step,
+                dt,
+            })
+        });
+        trial.t = t + dt;
+        trial.step = step + 1;
         self.trial = trial;
         self.has_trial = result.is_ok();
         result

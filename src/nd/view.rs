@@ -51,11 +51,50 @@ pub struct ViewNd<'a, const D: usize> {
     /// Totals the stepper computed in its own pass over the particles, if it offers them
     /// (optional: `None` makes the limits compute what they need from the slices).
     pub summary: Option<SummaryNd<D>>,
+    /// For a stepper whose grid is decomposed over processes: how this process's nodes and
+    /// particles relate to the whole run (`None` for an undivided grid).
+    pub split: Option<SplitNd<'a, D>>,
+}
+
+/// Completes nodal sums across the processes of a grid-decomposed run ([`SplitNd`]).
+pub trait NodalHalo: std::fmt::Debug {
+    /// Adds the other processes' partial sums at the nodes this process shares with them
+    /// into `values` (`width` numbers per local node, node-major), so that every copy of a
+    /// node holds the same total, bit for bit. Collective: every process calls it together.
+    fn complete(&self, values: &mut [f64], width: usize);
+}
+
+/// How the nodes and particles of a grid-decomposed view relate to the whole run
+/// ([`crate::nd::SolverNd::new_slab`]).
+///
+/// The view's `grid` is this process's window of the whole grid: its own nodes plus
+/// ghost copies of its neighbours' nodes that its particles' stencils reach. Its nodal
+/// fields are complete at every copy (the stepper has added the other processes' sums);
+/// its particles are the ones this process owns. A quantity summed over nodes is summed
+/// over the *owned* nodes and then over the processes; a product with the stiffness is
+/// this process's particles' part, completed with [`NodalHalo::complete`].
+#[derive(Clone, Copy, Debug)]
+pub struct SplitNd<'a, const D: usize> {
+    /// The whole grid (boundaries, periodicity, lattice numbering).
+    pub whole: &'a GridNd<D>,
+    /// Index in the whole grid of each local node.
+    pub global_node: &'a [u32],
+    /// Whether this process owns a local node (every node has exactly one owner).
+    pub owned: &'a [bool],
+    /// A run-wide identity of each local particle, in `0..n_particles_total`; particles
+    /// keep it when they move between processes.
+    pub particle_id: &'a [u64],
+    /// Number of particles over all processes.
+    pub n_particles_total: usize,
+    /// The exchange that completes nodal sums.
+    pub halo: &'a dyn NodalHalo,
 }
 
 /// Totals over a state's particles that a stepper can compute while it writes them, so
 /// that the controller and the limits need no pass of their own ([`ViewNd::summary`]).
-/// In a run split over processes ([`crate::reduce`]) they are this process's.
+/// In a run split over processes by particle ([`crate::reduce`]) they are this process's;
+/// in a grid-decomposed run ([`ViewNd::split`]), where particles move between processes,
+/// they are the whole run's.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SummaryNd<const D: usize> {
     /// Every `x`, `v`, `σ`, `F` value of the state is finite (checked by the stepper).

@@ -61,6 +61,18 @@ pub trait Reduce: std::fmt::Debug {
     fn any_flags(&self, flags: &mut [bool]);
     /// Element-wise sums over all processes, in place.
     fn sum(&self, values: &mut [f64]);
+    /// A neighbour exchange (one shift of a halo swap): sends `send` to process `to` and
+    /// returns what process `from` sent to this one with the same `tag`, `None` when
+    /// `from` is `None`. Both sides must call it together (the decomposed solver's ghost
+    /// sums and particle migration, [`crate::nd::SolverNd::new_slab`]); it does not
+    /// deadlock when every process sends and receives in the same call.
+    fn exchange(
+        &self,
+        to: Option<usize>,
+        from: Option<usize>,
+        tag: u16,
+        send: &[f64],
+    ) -> Option<Vec<f64>>;
 }
 
 /// One process: every reduction is the identity.
@@ -79,6 +91,16 @@ impl Reduce for SingleProcess {
     }
     fn any_flags(&self, _flags: &mut [bool]) {}
     fn sum(&self, _values: &mut [f64]) {}
+    /// On one process the only partner is itself: what it sends comes back.
+    fn exchange(
+        &self,
+        to: Option<usize>,
+        from: Option<usize>,
+        _tag: u16,
+        send: &[f64],
+    ) -> Option<Vec<f64>> {
+        (to == Some(0) && from == Some(0)).then(|| send.to_vec())
+    }
 }
 
 mod timed;

@@ -3,6 +3,7 @@
 
 use super::Reduce;
 use mpi::collective::{CommunicatorCollectives, SystemOperation};
+use mpi::point_to_point::{Destination, Source};
 use mpi::topology::{Communicator, SimpleCommunicator};
 
 /// Reductions over the ranks of an MPI communicator: one `MPI_Allreduce` per call.
@@ -58,5 +59,34 @@ impl Reduce for MpiReduce {
         let send = values.to_vec();
         self.comm
             .all_reduce_into(&send[..], values, SystemOperation::sum());
+    }
+
+    fn exchange(
+        &self,
+        to: Option<usize>,
+        from: Option<usize>,
+        tag: u16,
+        send: &[f64],
+    ) -> Option<Vec<f64>> {
+        let tag = i32::from(tag);
+        // A non-blocking send and a blocking receive: no deadlock when every process
+        // sends and receives in the same call.
+        mpi::request::scope(|scope| {
+            let request = to.map(|r| {
+                self.comm
+                    .process_at_rank(r as i32)
+                    .immediate_send_with_tag(scope, send, tag)
+            });
+            let received = from.map(|r| {
+                self.comm
+                    .process_at_rank(r as i32)
+                    .receive_vec_with_tag::<f64>(tag)
+                    .0
+            });
+            if let Some(request) = request {
+                request.wait();
+            }
+            received
+        })
     }
 }

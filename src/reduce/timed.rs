@@ -58,6 +58,15 @@ impl<R: Reduce> Reduce for Timed<R> {
     fn sum(&self, values: &mut [f64]) {
         self.time(|| self.inner.sum(values))
     }
+    fn exchange(
+        &self,
+        to: Option<usize>,
+        from: Option<usize>,
+        tag: u16,
+        send: &[f64],
+    ) -> Option<Vec<f64>> {
+        self.time(|| self.inner.exchange(to, from, tag, send))
+    }
 }
 
 #[cfg(test)]

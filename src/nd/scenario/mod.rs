@@ -385,6 +385,17 @@ impl ScenarioNd {
         Ok((solver, wave))
     }
 
+    /// [`Self::build`] for this process's slab of a run whose grid is decomposed along its
+    /// last axis over the processes of `reduce` ([`SolverNd::new_slab`]).
+    pub fn build_slab<const D: usize>(
+        &self,
+        reduce: std::rc::Rc<dyn crate::reduce::Reduce>,
+    ) -> Result<(SolverNd<D>, Option<PlaneWave<D>>), ScenarioNdError> {
+        let (grid, particles, gravity, wave) = self.parts::<D>()?;
+        let solver = SolverNd::new_slab(grid, self.shape, particles, gravity, reduce)?;
+        Ok((solver, wave))
+    }
+
     /// The grid, particles (with the initial velocity), gravity and exact solution.
     #[allow(clippy::type_complexity)]
     fn parts<const D: usize>(
