@@ -29,14 +29,14 @@
 //!   grid update — a function of the node's sums only — is the same at every copy.
 //! * **Migration** ([`SlabNd::migrate`]): after a grid → particle pass, a particle whose
 //!   new `y` left the owned range goes to the neighbour that owns it, with every field
-//!   that describes it (a record of `3D + 2D² + 9` numbers). A step moves a particle much
+//!   that describes it (a record of `3D + 2D² + 9` numbers, `nd::migration`). A step moves a particle much
 //!   less than a slab (four cells); a particle that jumps past the neighbour fails the
 //!   trial.
 //!
 //! Both are two shifts ([`crate::reduce::Reduce::exchange`]): to the upper neighbour and
 //! from the lower one, then the reverse.
 
-use super::{GridNd, MaterialNd, NodalHalo, SetupNdError, Tensor, Vector};
+use super::{GridNd, NodalHalo, SetupNdError, Vector};
 use crate::grid::Boundary;
 use crate::reduce::Reduce;
 use std::ops::Range;
@@ -266,7 +266,7 @@ impl<const D: usize> SlabNd<D> {
         }
     }
 
-    /// Sends the records ([`ParticleRecord`]) of the particles that left the owned range up
+    /// Sends the records ([`super::migration::ParticleRecord`]) of the particles that left the owned range up
     /// and down to the neighbours that own them (module docs) and returns the records that
     /// arrive, from below, then from above. Collective between neighbours.
     pub fn migrate(&self, up_going: &[f64], down_going: &[f64]) -> Vec<f64> {
@@ -314,135 +314,10 @@ impl<const D: usize> NodalHalo for SlabNd<D> {
     }
 }
 
-/// Numbers in one migrating particle's record.
-pub const fn record_len(d: usize) -> usize {
-    3 * d + 2 * d * d + 9
-}
-
-/// One particle's fields as they travel between processes.
-#[derive(Clone, Copy, Debug)]
-pub struct ParticleRecord<const D: usize> {
-    pub x: Vector<D>,
-    pub v: Vector<D>,
-    pub sigma: Tensor<D>,
-    pub f: Tensor<D>,
-    pub density: f64,
-    pub lame: (f64, f64),
-    pub mass: f64,
-    pub volume0: f64,
-    pub domain: Vector<D>,
-    pub material: MaterialNd,
-    pub id: u64,
-}
-
-impl<const D: usize> ParticleRecord<D> {
-    /// Appends the record to `out` ([`record_len`] numbers).
-    pub fn write(&self, out: &mut Vec<f64>) {
-        out.extend(self.x.iter());
-        out.extend(self.v.iter());
-        out.extend(self.sigma.iter());
-        out.extend(self.f.iter());
-        out.extend([
-            self.density,
-            self.lame.0,
-            self.lame.1,
-            self.mass,
-            self.volume0,
-        ]);
-        out.extend(self.domain.iter());
-        let (kind, e, nu) = match self.material {
-            MaterialNd::LinearElastic {
-                youngs_modulus,
-                poisson_ratio,
-            } => (0.0, youngs_modulus, poisson_ratio),
-            MaterialNd::NeoHookean {
-                youngs_modulus,
-                poisson_ratio,
-            } => (1.0, youngs_modulus, poisson_ratio),
-        };
-        out.extend([kind, e, nu, self.id as f64]);
-    }
-
-    /// Reads a record written by [`Self::write`].
-    pub fn read(r: &[f64]) -> Self {
-        let mut k = 0;
-        let mut take = |n: usize| {
-            let s = &r[k..k + n];
-            k += n;
-            s
-        };
-        let x = Vector::<D>::from_column_slice(take(D));
-        let v = Vector::<D>::from_column_slice(take(D));
-        let sigma = Tensor::<D>::from_column_slice(take(D * D));
-        let f = Tensor::<D>::from_column_slice(take(D * D));
-        let s = take(5);
-        let (density, lame, mass, volume0) = (s[0], (s[1], s[2]), s[3], s[4]);
-        let domain = Vector::<D>::from_column_slice(take(D));
-        let m = take(4);
-        let (youngs_modulus, poisson_ratio) = (m[1], m[2]);
-        let material = if m[0] == 0.0 {
-            MaterialNd::LinearElastic {
-                youngs_modulus,
-                poisson_ratio,
-            }
-        } else {
-            MaterialNd::NeoHookean {
-                youngs_modulus,
-                poisson_ratio,
-            }
-        };
-        Self {
-            x,
-            v,
-            sigma,
-            f,
-            density,
-            lame,
-            mass,
-            volume0,
-            domain,
-            material,
-            id: m[3] as u64,
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::reduce::SingleProcess;
-
-    #[test]
-    fn a_record_travels_unchanged() {
-        let r = ParticleRecord::<3> {
-            x: Vector::<3>::new(0.1, 0.2, 0.3),
-            v: Vector::<3>::new(-1.0, 2.0, 1e-300),
-            sigma: Tensor::<3>::from_fn(|i, j| (i * 3 + j) as f64 + 0.5),
-            f: Tensor::<3>::from_fn(|i, j| (i + 2 * j) as f64 - 0.25),
-            density: 1000.0,
-            lame: (1.5, 2.5),
-            mass: 3.0e-4,
-            volume0: 2.0e-7,
-            domain: Vector::<3>::new(0.01, 0.02, 0.03),
-            material: MaterialNd::NeoHookean {
-                youngs_modulus: 1e6,
-                poisson_ratio: 0.3,
-            },
-            id: (1 << 40) + 7,
-        };
-        let mut buf = Vec::new();
-        r.write(&mut buf);
-        assert_eq!(buf.len(), record_len(3));
-        let back = ParticleRecord::<3>::read(&buf);
-        let mut again = Vec::new();
-        back.write(&mut again);
-        assert_eq!(
-            buf.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
-            again.iter().map(|v| v.to_bits()).collect::<Vec<_>>()
-        );
-        assert_eq!(back.id, r.id);
-        assert_eq!(back.material, r.material);
-    }
 
     #[test]
     fn one_process_owns_the_whole_grid_and_slabs_are_checked() {

@@ -1,0 +1,171 @@
+//! Setting a [`SolverNd`] up: undivided, split by particle, or on a slab of a decomposed
+//! grid.
+
+use super::{CarriedNd, SolverNd, StateNd, INACTIVE_MASS_RATIO};
+use crate::nd::particles::{ParticlesNd, SetupNdError};
+use crate::nd::slab::SlabNd;
+use crate::nd::{GridNd, ShapeNd, Tensor, Vector, WeightsNd};
+use crate::reduce::Reduce;
+use std::rc::Rc;
+
+impl<const D: usize> SolverNd<D> {
+    /// A solver on `grid` with `shape` weights, starting at `t = 0` from `particles` with
+    /// zero stress and `F = I`, under the body force `gravity` (an acceleration).
+    pub fn new(
+        grid: GridNd<D>,
+        shape: ShapeNd,
+        particles: ParticlesNd<D>,
+        gravity: Vector<D>,
+    ) -> Result<Self, SetupNdError> {
+        particles.validate(&grid, shape)?;
+        let min_mass = particles.mass.iter().copied().fold(f64::INFINITY, f64::min);
+        let n = particles.len();
+        Self::build(grid, shape, particles, gravity, min_mass, None, None, n)
+    }
+
+    /// This process's part of a run split over the processes of `reduce` by particle
+    /// ([`crate::reduce`]): every process passes the *whole* set of particles and keeps the
+    /// block `[r·n/size, (r+1)·n/size)` ([`ParticlesNd::block`]). Every process holds the
+    /// whole grid; after each particle → grid pass the nodal sums are completed with one
+    /// reduction, so the nodal fields — and the grid → particle update of every particle —
+    /// are those of the undivided run up to the order of the floating-point sums. The
+    /// view holds this process's particles and the global nodal fields. Every process must
+    /// make the same calls (steps, [`Self::set_velocity_and_stress`]) together.
+    ///
+    /// This is a particle decomposition with a replicated grid: memory for the grid and
+    /// the reduction grow with the grid, not with the share of it a process works on
+    /// ([`Self::new_slab`] decomposes the grid).
+    pub fn new_distributed(
+        grid: GridNd<D>,
+        shape: ShapeNd,
+        particles: ParticlesNd<D>,
+        gravity: Vector<D>,
+        reduce: Rc<dyn Reduce>,
+    ) -> Result<Self, SetupNdError> {
+        particles.validate(&grid, shape)?;
+        let min_mass = particles.mass.iter().copied().fold(f64::INFINITY, f64::min);
+        let n = particles.len();
+        let first = reduce.rank().min(reduce.size()) * n / reduce.size().max(1);
+        let block = particles.block(reduce.rank(), reduce.size());
+        let ids = (first as u64..).take(block.len()).collect();
+        let mut solver = Self::build(grid, shape, block, gravity, min_mass, Some(reduce), None, n)?;
+        Rc::make_mut(&mut solver.committed.carried).id = ids;
+        Ok(solver)
+    }
+
+    /// This process's part of a run whose grid is decomposed into slabs along its last
+    /// axis over the processes of `reduce` (module docs of `nd::slab`): every process
+    /// passes the *whole* set of particles and keeps those in its slab; it holds its own
+    /// node planes plus two ghost planes each side, completes the nodal sums with its
+    /// neighbours after each particle → grid pass, and hands particles that leave its slab
+    /// to the neighbour that owns them. Memory and work per process scale with its slab;
+    /// the communication per step is two shifts of four node planes and of the moving
+    /// particles (plus the controller's reductions). The view ([`ViewNd::split`]) holds
+    /// this process's particles and window of nodes; its [`SummaryNd`] is the whole
+    /// run's. Every process must make the same calls together. The last axis needs at
+    /// least [`MIN_SLAB_CELLS`](super::MIN_SLAB_CELLS) cells per process.
+    pub fn new_slab(
+        grid: GridNd<D>,
+        shape: ShapeNd,
+        particles: ParticlesNd<D>,
+        gravity: Vector<D>,
+        reduce: Rc<dyn Reduce>,
+    ) -> Result<Self, SetupNdError> {
+        particles.validate(&grid, shape)?;
+        let min_mass = particles.mass.iter().copied().fold(f64::INFINITY, f64::min);
+        let n = particles.len();
+        let slab = SlabNd::new(grid, Rc::clone(&reduce))?;
+        let mine: Vec<usize> = (0..n)
+            .filter(|&p| slab.owns(particles.x[p][D - 1]))
+            .collect();
+        let pick = |p: &usize| *p;
+        let own = ParticlesNd {
+            x: mine.iter().map(|p| particles.x[pick(p)]).collect(),
+            v: mine.iter().map(|p| particles.v[pick(p)]).collect(),
+            mass: mine.iter().map(|p| particles.mass[pick(p)]).collect(),
+            volume: mine.iter().map(|p| particles.volume[pick(p)]).collect(),
+            domain: mine.iter().map(|p| particles.domain[pick(p)]).collect(),
+            material: mine.iter().map(|p| particles.material[pick(p)]).collect(),
+        };
+        let local = slab.local().clone();
+        let mut solver = Self::build(local, shape, own, gravity, min_mass, None, Some(slab), n)?;
+        Rc::make_mut(&mut solver.committed.carried).id = mine.iter().map(|&p| p as u64).collect();
+        Ok(solver)
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn build(
+        grid: GridNd<D>,
+        shape: ShapeNd,
+        particles: ParticlesNd<D>,
+        gravity: Vector<D>,
+        min_mass: f64,
+        reduce: Option<Rc<dyn Reduce>>,
+        slab: Option<SlabNd<D>>,
+        n_total: usize,
+    ) -> Result<Self, SetupNdError> {
+        if gravity.iter().any(|g| !g.is_finite()) {
+            return Err(SetupNdError::Gravity);
+        }
+        let n = particles.len();
+        let constrained = match &slab {
+            Some(s) => s
+                .global_node()
+                .iter()
+                .map(|&g| s.whole().is_constrained(g as usize))
+                .collect(),
+            None => (0..grid.n_nodes())
+                .map(|i| grid.is_constrained(i))
+                .collect(),
+        };
+        let (lame_lambda, lame_mu): (Vec<f64>, Vec<f64>) =
+            particles.material.iter().map(|m| m.tangent(1.0)).unzip();
+        let committed = StateNd {
+            t: 0.0,
+            step: 0,
+            density: (0..n)
+                .map(|p| particles.mass[p] / particles.volume[p])
+                .collect(),
+            x: particles.x,
+            v: particles.v,
+            sigma: vec![Tensor::<D>::zeros(); n],
+            f: vec![Tensor::<D>::identity(); n],
+            lame_lambda,
+            lame_mu,
+            weights: WeightsNd::new(grid.n_nodes(), shape.width(D)),
+            carried: Rc::new(CarriedNd {
+                mass: particles.mass,
+                volume0: particles.volume,
+                domain: particles.domain,
+                material: particles.material,
+                id: (0..n as u64).collect(),
+            }),
+            ..StateNd::default()
+        };
+        let mut solver = Self {
+            grid,
+            shape,
+            gravity,
+            constrained,
+            threshold: INACTIVE_MASS_RATIO * min_mass,
+            committed,
+            trial: StateNd::default(),
+            has_trial: false,
+            node_v1: Vec::new(),
+            reduce,
+            slab,
+            n_total,
+            summarize: false,
+        };
+        let mut c = std::mem::take(&mut solver.committed);
+        solver
+            .derive_state(&mut c, false)
+            .map_err(|index| SetupNdError::OutsideBox {
+                index,
+                axis: 0,
+                x: c.x[index][0],
+            })?;
+        solver.committed = c;
+        Ok(solver)
+    }
+}

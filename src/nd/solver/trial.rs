@@ -1,0 +1,123 @@
+//! One trial step of a [`SolverNd`].
+
+use super::SolverNd;
+use crate::nd::kernels::{self, Committed, ParticleFault, Written};
+use crate::nd::{SummaryNd, Tensor, Vector};
+use crate::stepper::StepError;
+use std::rc::Rc;
+
+impl<const D: usize> SolverNd<D> {
+    /// Computes the trial state of step `dt` into the trial buffer. In a split run every
+    /// process makes the same exchanges in the same order, also when its own part fails:
+    /// migration (grid-decomposed), the nodal sums, the whole run's totals.
+    pub(super) fn trial_step(&mut self, dt: f64) -> Result<(), StepError> {
+        self.has_trial = false;
+        let c = &self.committed;
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(StepError::InvalidDt { dt, t: c.t });
+        }
+        let n = c.x.len();
+        self.node_v1.clear();
+        self.node_v1
+            .extend(c.node_v.iter().zip(&c.node_a).map(|(v, a)| v + a * dt));
+        let mut trial = std::mem::take(&mut self.trial);
+        trial.x.resize(n, Vector::<D>::zeros());
+        trial.v.resize(n, Vector::<D>::zeros());
+        trial.sigma.resize(n, Tensor::<D>::zeros());
+        trial.f.resize(n, Tensor::<D>::zeros());
+        trial.density.resize(n, 0.0);
+        trial.lame_lambda.resize(n, 0.0);
+        trial.lame_mu.resize(n, 0.0);
+        trial.carried = Rc::clone(&c.carried);
+        let fault = kernels::grid_to_particle(
+            self.whole(),
+            &c.carried.material,
+            &c.carried.mass,
+            &c.carried.volume0,
+            &self.node_v1,
+            dt,
+            Committed {
+                x: &c.x,
+                v: &c.v,
+                sigma: &c.sigma,
+                f: &c.f,
+                weights: &c.weights,
+                node_a: &c.node_a,
+            },
+            Written {
+                x: &mut trial.x,
+                v: &mut trial.v,
+                sigma: &mut trial.sigma,
+                f: &mut trial.f,
+                density: &mut trial.density,
+                lame_lambda: &mut trial.lame_lambda,
+                lame_mu: &mut trial.lame_mu,
+            },
+            self.summarize,
+        );
+        let (t, step) = (c.t, c.step);
+        let mut result = match fault {
+            Err(ParticleFault::NonFinite(field, index)) => Err(StepError::NonFinite {
+                field,
+                index,
+                t,
+                step,
+                dt,
+            }),
+            Err(ParticleFault::OutOfDomain(index, x)) => Err(StepError::OutOfDomain {
+                index,
+                x,
+                t,
+                step,
+                dt,
+            }),
+            Err(ParticleFault::Inverted(index, f)) => Err(StepError::Inverted {
+                index,
+                f,
+                t,
+                step,
+                dt,
+            }),
+            Ok(summary) => Ok(summary),
+        };
+        if let Some(slab) = &self.slab {
+            let moved = crate::nd::migration::migrate(slab, &mut trial, result.is_err());
+            if let (Ok(_), Err(index)) = (&result, moved) {
+                // It jumped past the neighbouring slab: a blow-up, as leaving the box is.
+                result = Err(StepError::OutOfDomain {
+                    index,
+                    x: trial.x[index][D - 1],
+                    t,
+                    step,
+                    dt,
+                });
+            }
+        }
+        let derived = self.derive_state(&mut trial, result.is_err());
+        if self.summarize {
+            let mine = result.as_ref().ok().copied().unwrap_or(SummaryNd {
+                finite: false,
+                kinetic: 0.0,
+                strain: 0.0,
+                first_moment: Vector::<D>::zeros(),
+            });
+            trial.summary = Some(self.whole_run_summary(mine));
+        } else {
+            trial.summary = None;
+        }
+        let result = result.and_then(|_| {
+            derived.map_err(|index| StepError::OutOfDomain {
+                index,
+                x: trial.x[index][0],
+                t,
+                step,
+                dt,
+            })
+        });
+        trial.t = t + dt;
+        trial.step = step + 1;
+        self.trial = trial;
+        self.has_trial = result.is_ok();
+        result
+    }
+}
