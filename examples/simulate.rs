@@ -16,6 +16,19 @@
 //!   and prints each run's steps, wall time and final error, and `wall_ratio` (controlled
 //!   wall time over each fixed rule's).
 //!
+//!
+//! Built with the `mpi` feature it also runs 2D and 3D scenarios across MPI ranks, the
+//! grid cut into slabs along its last axis (`SolverNd::new_slab`); rank 0 prints the
+//! summary (energies and errors of the whole run) and the progress lines, with `ranks`
+//! and `reduce_s` (time in the reductions and neighbour exchanges) added:
+//!
+//! ```text
+//! cargo build --release --features mpi --example simulate
+//! mpirun -np 4 target/release/examples/simulate --scenario scenarios/nd/colliding_disks_1e5.json
+//! ```
+//!
+//! (`--fixed-dt` and `--compare` run on one process.)
+//!
 //! Errors (a bad scenario, a failed run) print a message on stderr and exit with status 1;
 //! usage errors exit with 2.
 
@@ -25,10 +38,12 @@ use mpm_dt::controller::{Controller, ControllerConfig, Stats};
 use mpm_dt::limits_nd::standard_limits;
 use mpm_dt::nd::scenario::ScenarioNd;
 use mpm_dt::nd::SolverNd;
+use mpm_dt::reduce::Reduce;
 use mpm_dt::scenario::Scenario;
 use mpm_dt::{Dim, Dimension, Stepper, ViewNd};
 use serde_json::{json, Value};
 use std::process::ExitCode;
+use std::rc::Rc;
 use std::time::Instant;
 
 const USAGE: &str =
@@ -135,20 +150,65 @@ where
     None
 }
 
-fn run_nd<const D: usize>(scenario: &ScenarioNd, args: &Args) -> Result<Value, String>
+/// The processes of a run: one, or the ranks of `mpirun` (feature `mpi`).
+struct Ranks {
+    reduce: Option<Rc<dyn Reduce>>,
+    /// Time spent in reductions and exchanges, when measured.
+    spent: Box<dyn Fn() -> f64>,
+}
+
+impl Ranks {
+    fn single() -> Self {
+        Self {
+            reduce: None,
+            spent: Box::new(|| 0.0),
+        }
+    }
+    fn size(&self) -> usize {
+        self.reduce.as_ref().map_or(1, |r| r.size())
+    }
+    fn lead(&self) -> bool {
+        self.reduce.as_ref().is_none_or(|r| r.rank() == 0)
+    }
+    fn sum(&self, v: f64) -> f64 {
+        let mut b = [v];
+        if let Some(r) = &self.reduce {
+            r.sum(&mut b);
+        }
+        b[0]
+    }
+    fn max(&self, v: Option<f64>) -> Option<f64> {
+        let r = self.reduce.as_ref()?;
+        let v = v?;
+        Some(-r.min_and_any(-v, false).0)
+    }
+}
+
+fn run_nd<const D: usize>(
+    scenario: &ScenarioNd,
+    args: &Args,
+    ranks: &Ranks,
+) -> Result<Value, String>
 where
     Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
 {
-    let (mut s, wave) = scenario.build::<D>().map_err(|e| e.to_string())?;
+    let (mut s, wave) = match &ranks.reduce {
+        Some(r) => scenario.build_slab::<D>(Rc::clone(r)),
+        None => scenario.build::<D>(),
+    }
+    .map_err(|e| e.to_string())?;
     let template = s.clone();
-    let e0 = s.total_energy();
+    let e0 = ranks.sum(s.total_energy());
     let describe = format!(
-        "{D}D, {} particles, cells {:?}, shape {:?}",
-        s.n_particles(),
+        "{D}D, {} particles, cells {:?}, shape {:?}, {} process(es)",
+        s.n_particles_total(),
         s.grid().cells,
-        s.shape()
+        s.shape(),
+        ranks.size()
     );
-    eprintln!("simulate: {describe}, t_end = {}", scenario.t_end);
+    if ranks.lead() {
+        eprintln!("simulate: {describe}, t_end = {}", scenario.t_end);
+    }
     if let Some((dt, k)) = args.fixed {
         let error = fixed_steps(&mut s, dt, k);
         let e = s.total_energy();
@@ -170,6 +230,9 @@ where
         .unwrap_or_else(mpm_dt::nd::Vector::<D>::zeros);
     let limits = standard_limits::<D>(&config, gravity);
     let mut controller = Controller::<D>::new(config, limits).map_err(|e| e.to_string())?;
+    if let Some(r) = &ranks.reduce {
+        controller = controller.with_reduce(Rc::clone(r));
+    }
     let start = Instant::now();
     let mut last_rejection = None;
     let mut refreshes = (0.0, 0.0);
@@ -201,16 +264,22 @@ where
         format!("{e}{why}")
     });
     let mut out = stats_summary(controller.stats());
-    let e = s.total_energy();
+    let e = ranks.sum(s.total_energy());
+    let velocity_error = wave.as_ref().map(|w| w.velocity_error(&s.view()));
+    let velocity_error = ranks.max(velocity_error).or(velocity_error);
     out["t_final"] = json!(s.time());
     out["blew_up"] = json!(error.is_some() || !e.is_finite() || e > 10.0 * e0);
-    out["velocity_error_linf"] = json!(wave.as_ref().map(|w| w.velocity_error(&s.view())));
+    out["velocity_error_linf"] = json!(velocity_error);
     out["energy_initial"] = json!(e0);
     out["energy_final"] = json!(e);
     out["wall_s"] = json!(wall);
     out["error"] = json!(error);
     out["stability_refreshes"] = json!(refreshes.0);
     out["lanczos_applications"] = json!(refreshes.1);
+    if ranks.reduce.is_some() {
+        out["ranks"] = json!(ranks.size());
+        out["reduce_s"] = json!((ranks.spent)());
+    }
     if args.compare {
         let mut rules = Vec::new();
         for alpha in [0.4, 0.5] {
@@ -286,22 +355,64 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
+    #[cfg(feature = "mpi")]
+    let Some(universe) = mpi::initialize() else {
+        eprintln!("error: MPI could not be initialised");
+        return ExitCode::FAILURE;
+    };
+    #[cfg(feature = "mpi")]
+    let ranks = {
+        use mpi::topology::Communicator;
+        let world = universe.world();
+        if world.size() > 1 {
+            let timed = Rc::new(mpm_dt::reduce::Timed::new(mpm_dt::reduce::MpiReduce::new(
+                world,
+            )));
+            let clock = Rc::clone(&timed);
+            Ranks {
+                reduce: Some(timed),
+                spent: Box::new(move || clock.spent().as_secs_f64()),
+            }
+        } else {
+            Ranks::single()
+        }
+    };
+    #[cfg(not(feature = "mpi"))]
+    let ranks = Ranks::single();
+    if ranks.size() > 1 && (args.fixed.is_some() || args.compare) {
+        if ranks.lead() {
+            eprintln!("error: --fixed-dt and --compare run on one process\n{USAGE}");
+        }
+        return ExitCode::from(2);
+    }
     let result = std::fs::read_to_string(&args.scenario)
         .map_err(|e| format!("cannot read {}: {e}", args.scenario))
         .and_then(|text| {
             let dim = ScenarioNd::dim_of(&text).map_err(|e| e.to_string())?;
             match dim {
+                1 if ranks.size() > 1 => Err("1D scenarios run on one process".into()),
                 1 => run_1d(&text, &args),
                 d => {
                     let scenario = ScenarioNd::from_json(&text).map_err(|e| e.to_string())?;
                     if d == 2 {
-                        run_nd::<2>(&scenario, &args)
+                        run_nd::<2>(&scenario, &args, &ranks)
                     } else {
-                        run_nd::<3>(&scenario, &args)
+                        run_nd::<3>(&scenario, &args, &ranks)
                     }
                 }
             }
         });
+    if !ranks.lead() {
+        // Rank 0 reports; the others only say why they failed, if they did.
+        return match result {
+            Ok(summary) if !summary["blew_up"].as_bool().unwrap_or(false) => ExitCode::SUCCESS,
+            Ok(_) => ExitCode::FAILURE,
+            Err(e) => {
+                eprintln!("error: {e}");
+                ExitCode::FAILURE
+            }
+        };
+    }
     match result {
         Ok(summary) => {
             let failed = summary["blew_up"].as_bool().unwrap_or(false);

@@ -92,7 +92,7 @@ pub fn apply_scaled<const D: usize>(
 /// when no node is active). In a run split over processes ([`crate::reduce`]) the view
 /// holds this process's particles and the global nodal masses; the diagonal sums are
 /// completed with `reduce`, so every process returns the same (pass
-/// [`SingleProcess`](crate::reduce::SingleProcess) otherwise).
+/// [`SingleProcess`] otherwise).
 pub fn diagonal_argmax<const D: usize>(view: &ViewNd<'_, D>, reduce: &dyn Reduce) -> (f64, usize) {
     let space = NodalSpace::new(view, reduce);
     let mut diag = vec![0.0; view.n_nodes() * D];
@@ -308,11 +308,12 @@ pub fn lanczos<const D: usize>(
     lanczos_reduced(view, start, tol, max_iter, &SingleProcess)
 }
 
-/// [`lanczos`] for a run split over processes ([`crate::reduce`]): the view holds this
-/// process's particles and the global nodal fields; each product `A u` is this process's
-/// particles' part, summed over the processes with `reduce`. The vectors are the whole
-/// grid's on every process, so the iteration, its stopping test and its result are the
-/// same everywhere (every process must call it together).
+/// [`lanczos`] for a run split over processes ([`crate::reduce`]): each product `A u` is
+/// this process's particles' part, completed over the processes ([`NodalSpace`]: a sum of
+/// whole-grid vectors when the grid is not decomposed, the view's halo when it is, with
+/// dot products over owned nodes). Every scalar of the iteration is then the same on every
+/// process, so its stopping test and its result are too (every process must call it
+/// together).
 pub fn lanczos_reduced<const D: usize>(
     view: &ViewNd<'_, D>,
     start: &[f64],

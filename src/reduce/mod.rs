@@ -33,20 +33,32 @@
 //!
 //! # What a split stepper must provide
 //!
-//! The view of each process holds its own particles and the *global* nodal fields (masses,
-//! velocities, accelerations, active flags): every process must see the same nodes as the
-//! undivided run. Its trial takes part in the same reductions on every process, also when
-//! its own pass fails (it then contributes zeros), and it reports the failure through its
-//! `StepError` as usual. The reference solver does this as a particle decomposition
-//! ([`crate::nd::SolverNd::new_distributed`]): the whole grid on every process, one
-//! reduction of the nodal sums per pass.
+//! Its trial takes part in the same collectives on every process, in the same order, also
+//! when its own pass fails (it then contributes zeros and sends no particles), and it
+//! reports the failure through its `StepError` as usual. Its view comes in one of two
+//! forms, both done by the reference solver:
 //!
-//! A decomposition of the grid itself (not implemented) would hold the owned nodes plus a
-//! ghost layer one stencil wide (two cells for GIMP and quadratic B-splines, one for linear
-//! hats), exchange ghost sums after each particle → grid pass, migrate particles that leave
-//! a rank's part, and for the stability products copy `u` from owners to ghosts, add the
-//! ghost rows of `y` to their owners, and complete dot products over owned nodes with
-//! [`Reduce::sum`].
+//! * **Split by particle, whole grid** ([`crate::nd::SolverNd::new_distributed`]): the
+//!   view holds this process's particles and the *global* nodal fields (masses,
+//!   velocities, accelerations, active flags), the same on every process, with
+//!   [`crate::nd::ViewNd::split`] `None`. Products with the stiffness are completed with
+//!   [`Reduce::sum`] over whole-grid vectors. Simple; memory and the nodal reduction grow
+//!   with the whole grid.
+//! * **Decomposed grid** ([`crate::nd::SolverNd::new_slab`]: slabs along the last axis):
+//!   the view holds this process's particles and its window of nodes — owned nodes plus
+//!   ghost copies of the neighbours' nodes its particles reach — with complete nodal
+//!   fields at every copy, and describes the split in [`crate::nd::SplitNd`]: the whole
+//!   grid, each local node's global index and owner flag, each particle's run-wide
+//!   identity (kept when it moves to another process), and a
+//!   [`NodalHalo`](crate::nd::NodalHalo) that completes nodal sums with the neighbours
+//!   ([`Reduce::exchange`]). The stability tracker then completes each product `A u`
+//!   with the halo, sums dot products over owned nodes and then over the processes, and
+//!   builds its starts and tie-breaks from global indices, so its `λmax` does not depend
+//!   on the split. Its summary ([`crate::nd::SummaryNd`]) is the whole run's, so the
+//!   growth monitor sees the whole run's energy as particles move between processes.
+//!
+//! Either way 1, 2 and 4 processes take the same steps to the rounding of the sums
+//! (`tests/mpi_ranks.rs`).
 
 /// Global reductions over the processes of one run (module docs). Object safe.
 pub trait Reduce: std::fmt::Debug {

@@ -54,16 +54,16 @@ impl<const D: usize> SolverNd<D> {
     }
 
     /// This process's part of a run whose grid is decomposed into slabs along its last
-    /// axis over the processes of `reduce` (module docs of `nd::slab`): every process
+    /// axis over the processes of `reduce` (docs/design.md, "Grid decomposition"): every process
     /// passes the *whole* set of particles and keeps those in its slab; it holds its own
     /// node planes plus two ghost planes each side, completes the nodal sums with its
     /// neighbours after each particle → grid pass, and hands particles that leave its slab
     /// to the neighbour that owns them. Memory and work per process scale with its slab;
     /// the communication per step is two shifts of four node planes and of the moving
-    /// particles (plus the controller's reductions). The view ([`ViewNd::split`]) holds
-    /// this process's particles and window of nodes; its [`SummaryNd`] is the whole
+    /// particles (plus the controller's reductions). The view ([`crate::nd::ViewNd::split`]) holds
+    /// this process's particles and window of nodes; its [`crate::nd::SummaryNd`] is the whole
     /// run's. Every process must make the same calls together. The last axis needs at
-    /// least [`MIN_SLAB_CELLS`](super::MIN_SLAB_CELLS) cells per process.
+    /// least [`MIN_SLAB_CELLS`](crate::nd::MIN_SLAB_CELLS) cells per process.
     pub fn new_slab(
         grid: GridNd<D>,
         shape: ShapeNd,
