@@ -314,7 +314,8 @@ impl<const D: usize> StabilityNd<D> {
         let global = |c: usize| space.global(c / D) * D + c % D;
         let n_global = (space.global_nodes() * D) as f64;
         let (diag_max, diag_at) = diagonal_argmax(view, &*self.reduce);
-        let mut start: Vec<f64> = if self.ritz.len() == n {
+        let warm = self.ritz.len() == n;
+        let mut start: Vec<f64> = if warm {
             // Warm start, nudged so that it is never orthogonal to a new top mode.
             self.ritz
                 .iter()
@@ -326,11 +327,13 @@ impl<const D: usize> StabilityNd<D> {
         } else {
             checkerboard_start(view, &space)
         };
-        // Plus the unit velocity at the stiffest node for its mass: a mode localised on a
-        // light node, far from the previous top mode, is then in the Krylov space from the
-        // first product.
+        // A warm start plus the unit velocity at the stiffest node for its mass: a mode
+        // localised on a light node, far from the previous top mode, is then in the Krylov
+        // space from the first product. (Not on a cold start: there it dilutes the
+        // checkerboards and costs products — measured 2 against 20 on the 3D GIMP wave, 4
+        // against 11 on the linear-hat small-mass layout, with equal or higher values.)
         let scale = space.dot(&start, &start).sqrt();
-        if scale > 0.0 {
+        if warm && scale > 0.0 {
             for (c, value) in start.iter_mut().enumerate() {
                 if global(c) == diag_at {
                     *value += scale;
@@ -367,10 +370,14 @@ impl<const D: usize> StabilityNd<D> {
     }
 }
 
-/// A cold start close to the top of the spectrum: the nodal checkerboard
-/// `(−1)^(Σ_a j_a)` in every component (the highest-wavenumber mode, which carries `λmax` on
-/// uniform layouts), plus a small seeded perturbation so that no mode is missed; both
-/// functions of the node in the whole grid.
+/// A cold start close to the top of the spectrum: in component `a`, the checkerboard along
+/// axis `a`, `(−1)^(j_a)` (the P wave of the highest wavenumber along each axis, which
+/// carries `λmax` on uniform GIMP and linear-hat layouts: across the other axes the
+/// weights sum to one, where the full checkerboard's alternating sums nearly cancel),
+/// plus half the full checkerboard `(−1)^(Σ_b j_b)` and a small seeded perturbation so
+/// that no mode is missed; all functions of the node in the whole grid. On the 3D GIMP
+/// wave of 10⁵ particles the first Rayleigh quotient is 0.56 of `λmax` against 0.20 for
+/// the full checkerboard alone, and Lanczos settles in 2 products instead of 20.
 fn checkerboard_start<const D: usize>(
     view: &ViewNd<'_, D>,
     space: &NodalSpace<'_, '_, D>,
@@ -388,7 +395,8 @@ fn checkerboard_start<const D: usize>(
         };
         for a in 0..D {
             let noise = ((i * D + a) * 7919 % 101) as f64 / 101.0 - 0.5;
-            out.push(sign + 0.1 * noise);
+            let along = if j[a].rem_euclid(2) == 0 { 1.0 } else { -1.0 };
+            out.push(along + 0.5 * sign + 0.1 * noise);
         }
     }
     out
