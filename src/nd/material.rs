@@ -108,17 +108,21 @@ impl MaterialNd {
     /// `sigma`: `det(F) V⁰ · ½ σ:C⁻¹:σ` (linear; `C⁻¹σ = (σ − λ tr σ/(2μ + dλ) I)/(2μ)`)
     /// or `V⁰ W(F)` (neo-Hookean).
     pub fn energy<const D: usize>(&self, sigma: &Tensor<D>, f: &Tensor<D>, v0: f64) -> f64 {
-        let (lambda, mu) = self.lame();
         let j = super::det(f);
-        match self {
-            MaterialNd::LinearElastic { .. } => {
+        match *self {
+            MaterialNd::LinearElastic {
+                youngs_modulus: e,
+                poisson_ratio: nu,
+            } => {
+                // ½ σ:C⁻¹σ = (σ:σ − λ tr²σ/(2μ + dλ))/(4μ) with λ/(2μ + dλ) = ν/(1 + (d−2)ν)
+                // and 1/(4μ) = (1+ν)/(2E): one division (this runs once per particle in
+                // every controlled step's summary).
                 let tr = sigma.trace();
-                let eps = (sigma
-                    - Tensor::<D>::identity() * (lambda * tr / (2.0 * mu + D as f64 * lambda)))
-                    / (2.0 * mu);
-                j * v0 * 0.5 * sigma.dot(&eps)
+                let q = 1.0 + (D as f64 - 2.0) * nu;
+                j * v0 * (1.0 + nu) * (sigma.norm_squared() * q - nu * tr * tr) / (2.0 * e * q)
             }
             MaterialNd::NeoHookean { .. } => {
+                let (lambda, mu) = self.lame();
                 let lnj = j.ln();
                 v0 * (0.5 * mu * ((f.transpose() * f).trace() - D as f64) - mu * lnj
                     + 0.5 * lambda * lnj * lnj)
