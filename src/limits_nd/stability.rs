@@ -378,7 +378,7 @@ impl<const D: usize> StabilityNd<D> {
 /// that no mode is missed; all functions of the node in the whole grid. On the 3D GIMP
 /// wave of 10⁵ particles the first Rayleigh quotient is 0.56 of `λmax` against 0.20 for
 /// the full checkerboard alone, and Lanczos settles in 2 products instead of 20.
-fn checkerboard_start<const D: usize>(
+pub(super) fn checkerboard_start<const D: usize>(
     view: &ViewNd<'_, D>,
     space: &NodalSpace<'_, '_, D>,
 ) -> Vec<f64> {
