@@ -79,8 +79,8 @@ fn parse_args() -> Result<Args, String> {
 }
 
 /// The table of a 2D or 3D scenario (`mpm_dt::limits_nd::critical`): `cell_size`, `c_p`,
-/// `dt_sound`, `lambda_max_nodal`, `dt_eq56`, `dt_full_map` (`null`: not computed in d
-/// dimensions), `dt_controller` (the smallest proposal of the standard d-dimensional limits
+/// `dt_sound`, `lambda_max_nodal`, `dt_eq56`, `dt_full_map` (`null` above
+/// `limits_nd::full_map::FULL_MAP_LIMIT` unknowns), `dt_controller` (the smallest proposal of the standard d-dimensional limits
 /// for the initial state), `dt_empirical` (bisection, 4000 steps, amplitude `A`).
 fn run_nd<const D: usize>(
     scenario: &mpm_dt::nd::scenario::ScenarioNd,

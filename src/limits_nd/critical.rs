@@ -11,8 +11,10 @@
 //!   10× its start, a value is not finite, or some `det F ≤ 0` (up to
 //!   [`EMPIRICAL_LIMIT`] particle–node pairs).
 //!
-//! The frozen-particle full map (velocity and stress) of the 1D tools is not carried over
-//! to d dimensions yet; `dt_full_map` is `None`.
+//! * `dt_full_map` — the frozen-particle critical step of the whole linearised step,
+//!   velocity and stress ([`super::full_map`]), on layouts of at most
+//!   [`super::full_map::FULL_MAP_LIMIT`] unknowns (`None` above, or when its search
+//!   brackets no critical step).
 
 use super::stiffness::{dense_lambda_max, lanczos};
 use crate::dimension::{Dim, Dimension};
@@ -42,7 +44,7 @@ pub struct CriticalTable {
     pub lambda_max_dense: Option<f64>,
     /// `√(2/λmax)`.
     pub dt_eq56: f64,
-    /// Not computed in d dimensions (module docs).
+    /// The frozen-particle full map's critical step, on small layouts (module docs).
     pub dt_full_map: Option<f64>,
     /// Bisection on real runs, if asked for.
     pub dt_empirical: Option<f64>,
@@ -86,7 +88,8 @@ where
         lambda_max_nodal: lambda,
         lambda_max_dense: dense,
         dt_eq56: (2.0 / lambda).sqrt(),
-        dt_full_map: None,
+        dt_full_map: super::full_map::critical_dt(&view, (2.0 / lambda).sqrt())
+            .and_then(Result::ok),
         dt_empirical: empirical
             .filter(|_| view.n_particles() * view.weights.width() <= EMPIRICAL_LIMIT)
             .map(|(a, steps)| {

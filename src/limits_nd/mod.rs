@@ -35,6 +35,7 @@
 //! ```
 
 pub mod critical;
+pub mod full_map;
 mod growth;
 mod sound_speed;
 mod stability;

@@ -122,6 +122,12 @@ impl Frozen<'_> {
 }
 
 impl FullMap {
+    /// A map `T(dt) = t0 + dt t1 + dt² t2` from its coefficients (square, equal sizes),
+    /// as the d-dimensional map assembles it ([`crate::limits_nd::full_map`]).
+    pub(crate) fn from_coefficients(t0: Mat<f64>, t1: Mat<f64>, t2: Mat<f64>) -> Self {
+        Self { t0, t1, t2 }
+    }
+
     /// The map of state `view` (typed errors on invalid fields).
     pub fn new(view: &View<'_>) -> Result<Self, StabilityError> {
         check_view(view)?;
