@@ -393,9 +393,9 @@ pub(super) fn checkerboard_start<const D: usize>(
         } else {
             -1.0
         };
-        for a in 0..D {
+        for (a, &ja) in j.iter().enumerate() {
             let noise = ((i * D + a) * 7919 % 101) as f64 / 101.0 - 0.5;
-            let along = if j[a].rem_euclid(2) == 0 { 1.0 } else { -1.0 };
+            let along = if ja.rem_euclid(2) == 0 { 1.0 } else { -1.0 };
             out.push(along + 0.5 * sign + 0.1 * noise);
         }
     }
