@@ -80,8 +80,11 @@ fn parse_args() -> Result<Args, String> {
 
 /// The table of a 2D or 3D scenario (`mpm_dt::limits_nd::critical`): `cell_size`, `c_p`,
 /// `dt_sound`, `lambda_max_nodal`, `dt_eq56`, `dt_full_map` (`null` above
-/// `limits_nd::full_map::FULL_MAP_LIMIT` unknowns), `dt_controller` (the smallest proposal of the standard d-dimensional limits
-/// for the initial state), `dt_empirical` (bisection, 4000 steps, amplitude `A`).
+/// `limits_nd::full_map::FULL_MAP_LIMIT` unknowns), `dt_controller` (the smallest proposal
+/// of the standard d-dimensional limits for the initial state), `dt_empirical` (bisection,
+/// 4000 steps, amplitude `A`), and `dt_sound_over_critical`: `dt_sound` over the best
+/// critical step known (empirical, else full map, else eq 56) — above 1 the speed-of-sound
+/// step `h/c_p` is unsafe by that factor (`sound_unsafe_by = ratio − 1`, else 0).
 fn run_nd<const D: usize>(
     scenario: &mpm_dt::nd::scenario::ScenarioNd,
     amplitude: f64,
@@ -98,8 +101,15 @@ where
     for mut limit in mpm_dt::limits_nd::standard_limits::<D>(&config, gravity) {
         dt_controller = dt_controller.min(limit.propose(&view)?.dt);
     }
+    let critical = table
+        .dt_empirical
+        .or(table.dt_full_map)
+        .unwrap_or(table.dt_eq56);
+    let ratio = table.dt_sound / critical;
     let mut out = serde_json::to_value(&table)?;
     out["dt_controller"] = json!(dt_controller);
+    out["dt_sound_over_critical"] = json!(ratio);
+    out["sound_unsafe_by"] = json!((ratio - 1.0).max(0.0));
     out["dim"] = json!(D);
     Ok(out)
 }
