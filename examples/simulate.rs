@@ -180,7 +180,9 @@ impl Ranks {
     fn max(&self, v: Option<f64>) -> Option<f64> {
         let r = self.reduce.as_ref()?;
         let v = v?;
-        Some(-r.min_and_any(-v, false).0)
+        // A NaN travels as the flag (the minimum must not see one).
+        let (m, nan) = r.min_and_any(if v.is_nan() { 0.0 } else { -v }, v.is_nan());
+        Some(if nan { f64::NAN } else { -m })
     }
 }
 

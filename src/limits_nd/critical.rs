@@ -65,7 +65,9 @@ pub fn lambda_max<const D: usize>(view: &ViewNd<'_, D>) -> f64 {
 }
 
 /// The table for the committed state of `solver`; `empirical` = `Some((A, steps))` runs
-/// the bisection.
+/// the bisection. On a solver split over processes every process must call it together,
+/// and only `lambda_max_nodal` and `dt_eq56` are computed (the other checks are
+/// single-process tools).
 pub fn critical_table<const D: usize>(
     solver: &SolverNd<D>,
     empirical: Option<(f64, usize)>,
@@ -78,7 +80,10 @@ where
         .map(|p| view.p_wave_speed(p))
         .fold(0.0, f64::max);
     let lambda = lambda_max(&view);
-    let dense = (view.n_nodes() * D <= DENSE_LIMIT)
+    // The dense check, the full map and the bisection are single-process tools: on a
+    // split solver each process would analyse or run its own part alone.
+    let alone = view.split.is_none();
+    let dense = (alone && view.n_nodes() * D <= DENSE_LIMIT)
         .then(|| dense_lambda_max(&view))
         .flatten();
     CriticalTable {
@@ -88,10 +93,12 @@ where
         lambda_max_nodal: lambda,
         lambda_max_dense: dense,
         dt_eq56: (2.0 / lambda).sqrt(),
-        dt_full_map: super::full_map::critical_dt(&view, (2.0 / lambda).sqrt())
+        dt_full_map: alone
+            .then(|| super::full_map::critical_dt(&view, (2.0 / lambda).sqrt()))
+            .flatten()
             .and_then(Result::ok),
         dt_empirical: empirical
-            .filter(|_| view.n_particles() * view.weights.width() <= EMPIRICAL_LIMIT)
+            .filter(|_| alone && view.n_particles() * view.weights.width() <= EMPIRICAL_LIMIT)
             .map(|(a, steps)| {
                 // The true limit is a few per cent above dt_eq56 on GIMP and linear layouts
                 // (docs/design.md); the bracket widens itself when it is not.
@@ -102,7 +109,8 @@ where
 }
 
 /// Whether a run of `steps` fixed steps `dt` from the perturbed state blows up
-/// (module docs).
+/// (module docs). For an undivided solver: the processes of a split one would not agree
+/// on when to stop.
 pub fn blows_up<const D: usize>(
     template: &SolverNd<D>,
     amplitude: f64,

@@ -194,9 +194,19 @@ impl<const D: usize> StabilityNd<D> {
         if view.split.is_none() {
             return local;
         }
-        let (m, none) = self.reduce.min_and_any(local.0, false);
-        let _ = none;
+        let (m, _) = Self::agreement(&*self.reduce, view).min_and_any(local.0, false);
         (m, usize::from(m.is_finite()))
+    }
+
+    /// The reductions the processes agree with: a decomposed view's own
+    /// ([`crate::nd::NodalHalo::reduce`]), so that a limit the run forgot to give its
+    /// reducer ([`StepLimit::set_reduce`]) still takes part in every collective; else
+    /// `own`.
+    fn agreement<'r>(own: &'r dyn Reduce, view: &ViewNd<'r, D>) -> &'r dyn Reduce {
+        match &view.split {
+            Some(s) => s.halo.reduce(),
+            None => own,
+        }
     }
 
     /// Where particle `p`'s reference values are kept: its run-wide identity on a
@@ -307,7 +317,7 @@ impl<const D: usize> StabilityNd<D> {
             buf[k + D] = bulk;
             buf[k + D + 1] = shear;
         }
-        self.reduce.sum(&mut buf);
+        Self::agreement(&*self.reduce, view).sum(&mut buf);
         self.x_ref = buf
             .chunks_exact(w)
             .map(|c| Vector::<D>::from_column_slice(&c[..D]))
@@ -424,8 +434,7 @@ where
         // The processes of a split run agree: any stale part refreshes everywhere, and
         // the moduli growth is the largest of all (`crate::reduce`).
         let local = self.staleness(state);
-        let (neg_growth, stale) = self
-            .reduce
+        let (neg_growth, stale) = Self::agreement(&*self.reduce, state)
             .min_and_any(-local.unwrap_or(1.0), local.is_none());
         let agreed = (!stale).then_some(-neg_growth);
         let lambda = match (agreed, self.lambda) {

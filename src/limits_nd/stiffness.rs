@@ -157,8 +157,13 @@ pub struct NodalSpace<'v, 'a, const D: usize> {
 }
 
 impl<'v, 'a, const D: usize> NodalSpace<'v, 'a, D> {
-    /// The nodal space of `view` over the processes of `reduce`.
+    /// The nodal space of `view` over the processes of `reduce` — on a decomposed grid
+    /// ([`ViewNd::split`]) over the split's own processes, whatever `reduce` says.
     pub fn new(view: &'v ViewNd<'a, D>, reduce: &'v dyn Reduce) -> Self {
+        let reduce = match &view.split {
+            Some(s) => s.halo.reduce(),
+            None => reduce,
+        };
         Self { view, reduce }
     }
 

@@ -71,6 +71,10 @@ impl<const D: usize> SlabNd<D> {
     pub fn new(whole: GridNd<D>, reduce: Rc<dyn Reduce>) -> Result<Self, SetupNdError> {
         let axis = D - 1;
         let (rank, size) = (reduce.rank(), reduce.size().max(1));
+        if whole.n_nodes() > u32::MAX as usize {
+            // Node indices are stored as u32 (the weights' format).
+            return Err(SetupNdError::Grid { axis });
+        }
         let n_cells = whole.cells[axis];
         if size > 1 && n_cells < MIN_CELLS * size {
             return Err(SetupNdError::Decomposition {
@@ -298,6 +302,10 @@ impl<const D: usize> SlabNd<D> {
 }
 
 impl<const D: usize> NodalHalo for SlabNd<D> {
+    fn reduce(&self) -> &dyn Reduce {
+        &*self.reduce
+    }
+
     fn complete(&self, values: &mut [f64], width: usize) {
         let received: std::cell::RefCell<Vec<(Range<usize>, Vec<f64>)>> = Default::default();
         self.swap(

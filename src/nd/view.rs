@@ -62,6 +62,10 @@ pub trait NodalHalo: std::fmt::Debug {
     /// into `values` (`width` numbers per local node, node-major), so that every copy of a
     /// node holds the same total, bit for bit. Collective: every process calls it together.
     fn complete(&self, values: &mut [f64], width: usize);
+    /// The reductions over the processes of the run (sums over owned nodes, agreements):
+    /// a limit reading a split view uses these, so that it cannot disagree with the
+    /// stepper about who takes part.
+    fn reduce(&self) -> &dyn crate::reduce::Reduce;
 }
 
 /// How the nodes and particles of a grid-decomposed view relate to the whole run

@@ -288,6 +288,16 @@ impl<const D: usize> SolverNd<D> {
         let n = self.n_particles();
         for (field, len) in [("v", v.len()), ("sigma", sigma.len())] {
             if len != n {
+                // In a split run the others are making the nodal exchanges: take part.
+                self.take_part_after_failure();
+                if self.summarize {
+                    self.whole_run_summary(SummaryNd {
+                        finite: false,
+                        kinetic: 0.0,
+                        strain: 0.0,
+                        first_moment: Vector::<D>::zeros(),
+                    });
+                }
                 return Err(SetupNdError::Length {
                     field,
                     len,
