@@ -17,9 +17,7 @@ impl<const D: usize> SolverNd<D> {
         particles: ParticlesNd<D>,
         gravity: Vector<D>,
     ) -> Result<Self, SetupNdError> {
-        particles.validate(&grid, shape)?;
-        let min_mass = particles.mass.iter().copied().fold(f64::INFINITY, f64::min);
-        let n = particles.len();
+        let (min_mass, n) = checked(&particles, &grid, shape)?;
         Self::build(grid, shape, particles, gravity, min_mass, None, None, n)
     }
 
@@ -42,9 +40,7 @@ impl<const D: usize> SolverNd<D> {
         gravity: Vector<D>,
         reduce: Rc<dyn Reduce>,
     ) -> Result<Self, SetupNdError> {
-        particles.validate(&grid, shape)?;
-        let min_mass = particles.mass.iter().copied().fold(f64::INFINITY, f64::min);
-        let n = particles.len();
+        let (min_mass, n) = checked(&particles, &grid, shape)?;
         let first = reduce.rank().min(reduce.size()) * n / reduce.size().max(1);
         let block = particles.block(reduce.rank(), reduce.size());
         let ids = (first as u64..).take(block.len()).collect();
@@ -71,9 +67,7 @@ impl<const D: usize> SolverNd<D> {
         gravity: Vector<D>,
         reduce: Rc<dyn Reduce>,
     ) -> Result<Self, SetupNdError> {
-        particles.validate(&grid, shape)?;
-        let min_mass = particles.mass.iter().copied().fold(f64::INFINITY, f64::min);
-        let n = particles.len();
+        let (min_mass, n) = checked(&particles, &grid, shape)?;
         let slab = SlabNd::new(grid, Rc::clone(&reduce))?;
         let mine: Vec<usize> = (0..n)
             .filter(|&p| slab.owns(particles.x[p][D - 1]))
@@ -168,4 +162,16 @@ impl<const D: usize> SolverNd<D> {
         solver.committed = c;
         Ok(solver)
     }
+}
+
+/// Checks the whole set of particles against the grid: their smallest mass (the inactive
+/// node threshold is relative to it, the same on every process) and their number.
+fn checked<const D: usize>(
+    particles: &ParticlesNd<D>,
+    grid: &GridNd<D>,
+    shape: ShapeNd,
+) -> Result<(f64, usize), SetupNdError> {
+    particles.validate(grid, shape)?;
+    let min_mass = particles.mass.iter().copied().fold(f64::INFINITY, f64::min);
+    Ok((min_mass, particles.len()))
 }
