@@ -3,7 +3,7 @@
 //! jelly in place of its fluid.
 //!
 //! ```text
-//! cargo run --release --example mls_mpm -- [--grid N] [--t-end T] [--fixed-dt DT] [--find-failure] [--rules] [--fluid]
+//! cargo run --release --example mls_mpm -- [--grid N] [--t-end T] [--fixed-dt DT] [--find-failure] [--rules] [--fluid] [--eq56]
 //! ```
 //!
 //! The scene: a box `[0, 1]²` of `N×N` cells (default 128) with walls three cells thick,
@@ -19,11 +19,18 @@
 //!   its potential energy above the floor);
 //! * every run also drives the scene with mpm-dt's controller (the standard 2D limits: sound
 //!   speed, eq 56 stability on the solver's own weights, growth; no tuning) and prints both.
+//!   The stability limit is told the scheme's velocity transfer, APIC with quadratic
+//!   B-splines (`TransferNd::Apic { inertia: 0.25 }`: `D_p = h²/4`, a property of the
+//!   scheme): its limit is `√(2(1 + p)/λmax)` with `p` the transfer's Rayleigh quotient on
+//!   the top mode (`limits_nd::transfer`). `--eq56` analyses the paper's FLIP step instead
+//!   (`√(2/λmax)`), which is conservative for this scheme.
 
 mod solver;
 
 use mpm_dt::controller::{Controller, ControllerConfig};
-use mpm_dt::limits_nd::{standard_limits, SoundSpeedNd};
+use mpm_dt::limits_nd::{
+    standard_limits, SoundSpeedNd, StabilityNd, StabilityNdConfig, TransferNd,
+};
 use mpm_dt::nd::Vector;
 use mpm_dt::Stepper;
 use nalgebra::Vector2;
@@ -41,6 +48,9 @@ struct Scene {
     t_end: f64,
     /// mpm88's own weakly compressible fluid instead of the jelly.
     fluid: bool,
+    /// The stability limit analyses the scheme's APIC transfer (the default), or the
+    /// paper's FLIP step as eq 56 stands (`--eq56`) (`limits_nd::TransferNd`).
+    apic: bool,
 }
 
 fn build(scene: Scene) -> MlsMpm {
@@ -147,7 +157,20 @@ struct ControlledRun {
 fn run_controlled(scene: Scene) -> ControlledRun {
     let mut s = build(scene);
     let config = ControllerConfig::default();
-    let limits = standard_limits::<2>(&config, Vector::<2>::new(0.0, -9.8));
+    let mut limits = standard_limits::<2>(&config, Vector::<2>::new(0.0, -9.8));
+    if scene.apic {
+        // The same stability limit, told that the scheme transfers velocities by APIC
+        // with quadratic B-splines (inertia h²/4): a property of the scheme, not a tuning.
+        for limit in limits.iter_mut() {
+            if limit.name() == mpm_dt::limits_nd::STABILITY {
+                *limit = Box::new(StabilityNd::<2>::new(StabilityNdConfig {
+                    safety: config.stability.as_ref().map_or(0.9, |s| s.safety),
+                    transfer: TransferNd::Apic { inertia: 0.25 },
+                    ..StabilityNdConfig::default()
+                }));
+            }
+        }
+    }
     let start = std::time::Instant::now();
     let mut controller = match Controller::<2>::new(config, limits) {
         Ok(c) => c,
@@ -219,6 +242,7 @@ fn main() -> ExitCode {
         n_grid: 128,
         t_end: 0.5,
         fluid: false,
+        apic: true,
     };
     let mut fixed = None;
     let mut failure = false;
@@ -239,6 +263,10 @@ fn main() -> ExitCode {
                 scene.fluid = true;
                 Ok(())
             }
+            "--eq56" => {
+                scene.apic = false;
+                Ok(())
+            }
             "--find-failure" => {
                 failure = true;
                 Ok(())
@@ -248,7 +276,7 @@ fn main() -> ExitCode {
                 Ok(())
             }
             "--help" | "-h" => {
-                println!("usage: mls_mpm [--grid N] [--t-end T] [--fixed-dt DT] [--find-failure] [--rules] [--fluid]");
+                println!("usage: mls_mpm [--grid N] [--t-end T] [--fixed-dt DT] [--find-failure] [--rules] [--fluid] [--eq56]");
                 return ExitCode::SUCCESS;
             }
             other => Err(format!("unknown argument {other}")),

@@ -40,10 +40,12 @@ mod growth;
 mod sound_speed;
 mod stability;
 pub mod stiffness;
+mod transfer;
 
 pub use growth::{GrowthNd, GROWTH};
 pub use sound_speed::{SoundSpeedNd, SOUND_SPEED};
 pub use stability::{StabilityNd, StabilityNdConfig, STABILITY};
+pub use transfer::{apic_gain, TransferNd};
 
 use crate::controller::ControllerConfig;
 use crate::dimension::{Dim, Dimension};

@@ -61,6 +61,7 @@
 //! limit's safety for the rest of the run ([`StepLimit::scale_safety`]).
 
 use super::stiffness::{diagonal_argmax, lanczos_reduced, NodalSpace};
+use super::transfer::{apic_gain, TransferNd};
 use crate::dimension::{Dim, Dimension};
 use crate::limit::{LimitError, Metrics, Proposal, StepLimit};
 use crate::nd::{Vector, ViewNd};
@@ -101,6 +102,10 @@ pub struct StabilityNdConfig {
     pub max_iter: usize,
     /// Multiplier on the refreshed `λmax` bound (default 1.0).
     pub margin: f64,
+    /// The scheme's velocity transfer (default [`TransferNd::Flip`], the paper's USL):
+    /// with [`TransferNd::Apic`] the limit is `√(2(1 + p)/λmax)`, `p` the transfer's
+    /// Rayleigh quotient on the tracked top mode ([`super::transfer`]).
+    pub transfer: TransferNd,
 }
 
 impl Default for StabilityNdConfig {
@@ -115,6 +120,7 @@ impl Default for StabilityNdConfig {
             tol: 1e-2,
             max_iter: 40,
             margin: 1.0,
+            transfer: TransferNd::Flip,
         }
     }
 }
@@ -135,6 +141,8 @@ pub struct StabilityNd<const D: usize> {
     diag_ref: f64,
     /// Growth of `max diag(A)` accepted without a refresh since the last one (≥ 1).
     diag_growth: f64,
+    /// `1 + p` of the scheme's transfer on the tracked top mode (1 for FLIP).
+    gain: f64,
     age: u32,
     refreshes: u64,
     applications: u64,
@@ -155,6 +163,7 @@ impl<const D: usize> StabilityNd<D> {
             mass_ref: (0.0, 0),
             diag_ref: 0.0,
             diag_growth: 1.0,
+            gain: 1.0,
             age: 0,
             refreshes: 0,
             applications: 0,
@@ -376,6 +385,10 @@ impl<const D: usize> StabilityNd<D> {
                 ),
             });
         }
+        self.gain = match self.config.transfer {
+            TransferNd::Flip => 1.0,
+            TransferNd::Apic { inertia } => apic_gain(view, &space, &r.vector, inertia),
+        };
         self.ritz = r.vector;
         self.store_references(view);
         self.mass_ref = self.node_mass_summary(view);
@@ -448,8 +461,11 @@ where
         };
         self.age += 1;
         metrics.insert(crate::controller::metric::LAMBDA_MAX.into(), lambda);
+        if self.config.transfer != TransferNd::Flip {
+            metrics.insert("transfer_gain".into(), self.gain);
+        }
         Ok(Proposal {
-            dt: self.safety * (2.0 / lambda).sqrt(),
+            dt: self.safety * (2.0 * self.gain / lambda).sqrt(),
             metrics,
         })
     }
