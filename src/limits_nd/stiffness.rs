@@ -219,6 +219,14 @@ impl<'v, 'a, const D: usize> NodalSpace<'v, 'a, D> {
         out
     }
 
+    /// Element-wise sums over the processes of a decomposed grid (per-process partial
+    /// sums over owned nodes); nothing otherwise.
+    pub fn sum(&self, values: &mut [f64]) {
+        if self.view.split.is_some() {
+            self.reduce.sum(values);
+        }
+    }
+
     /// `aᵀb` over the whole grid.
     pub fn dot(&self, a: &[f64], b: &[f64]) -> f64 {
         self.dots(&[a], b)[0]
@@ -340,7 +348,39 @@ pub fn lanczos_reduced<const D: usize>(
         }
     }
     let space = NodalSpace::new(view, reduce);
-    let norm = space.dot(&q, &q).sqrt();
+    // The iteration runs on the active components only: every vector vanishes at inactive
+    // nodes (the start is zeroed there and `A` reads and writes zero there), so the sums
+    // are the full vectors' bit for bit, at the cost of the active part of the grid.
+    let comps: Vec<usize> = (0..view.n_nodes())
+        .filter(|&i| view.node_active[i])
+        .flat_map(|i| i * D..(i + 1) * D)
+        .collect();
+    let counted: Option<Vec<bool>> = view
+        .split
+        .as_ref()
+        .map(|s| comps.iter().map(|&c| s.owned[c / D]).collect());
+    let dots = |left: &[&[f64]], b: &[f64]| -> Vec<f64> {
+        let mut out: Vec<f64> = left
+            .iter()
+            .map(|a| match &counted {
+                Some(own) => a
+                    .iter()
+                    .zip(b)
+                    .zip(own)
+                    .filter(|(_, &o)| o)
+                    .map(|((x, y), _)| x * y)
+                    .sum(),
+                None => dot(a, b),
+            })
+            .collect();
+        if counted.is_some() {
+            space.sum(&mut out);
+        }
+        out
+    };
+    let gather = |full: &[f64]| -> Vec<f64> { comps.iter().map(|&c| full[c]).collect() };
+    let mut qc = gather(&q);
+    let norm = dots(&[&qc], &qc)[0].sqrt();
     if !(norm > 0.0 && norm.is_finite()) {
         return LanczosResult {
             lambda: 0.0,
@@ -349,25 +389,30 @@ pub fn lanczos_reduced<const D: usize>(
             applications: 0,
         };
     }
-    q.iter_mut().for_each(|v| *v /= norm);
-    let mut w = vec![0.0; n];
+    qc.iter_mut().for_each(|v| *v /= norm);
+    let mut qf = vec![0.0; n];
+    let mut wf = vec![0.0; n];
     let inv_sqrt_m = inverse_sqrt_mass(view);
     // (Ritz value, residual bound, coordinates in the basis) of the latest iteration.
     let mut best: (f64, f64, Vec<f64>) = (0.0, f64::INFINITY, vec![1.0]);
     // Consecutive iterations in which the Ritz value moved by less than `tol·λ/10`.
     let mut settled_runs = 0;
     for k in 0..max_iter.max(1) {
-        apply_scaled(view, &inv_sqrt_m, &q, &mut w);
-        space.complete(&mut w);
-        let a = space.dot(&q, &w);
-        basis.push(q.clone());
+        for (&c, &v) in comps.iter().zip(&qc) {
+            qf[c] = v;
+        }
+        apply_scaled(view, &inv_sqrt_m, &qf, &mut wf);
+        space.complete(&mut wf);
+        let mut w = gather(&wf);
+        let a = dots(&[&qc], &w)[0];
+        basis.push(std::mem::take(&mut qc));
         alpha.push(a);
         // Full reorthogonalisation (twice is enough): modified Gram–Schmidt on an
         // undivided grid; classical (one reduction per pass) on a decomposed one.
         for _ in 0..2 {
             if view.split.is_some() {
                 let refs: Vec<&[f64]> = basis.iter().map(|b| b.as_slice()).collect();
-                let cs = space.dots(&refs, &w);
+                let cs = dots(&refs, &w);
                 for (b, c) in basis.iter().zip(cs) {
                     w.iter_mut().zip(b).for_each(|(x, y)| *x -= c * y);
                 }
@@ -378,7 +423,7 @@ pub fn lanczos_reduced<const D: usize>(
                 }
             }
         }
-        let bnorm = space.dot(&w, &w).sqrt();
+        let bnorm = dots(&[&w], &w)[0].sqrt();
         let (theta, y) = tridiagonal_top(&alpha, &beta);
         let residual = bnorm * y.last().copied().unwrap_or(0.0).abs();
         let settled = (theta - best.0).abs() <= 0.1 * tol * theta.abs();
@@ -392,12 +437,25 @@ pub fn lanczos_reduced<const D: usize>(
             break;
         }
         beta.push(bnorm);
-        q = w.iter().map(|v| v / bnorm).collect();
+        qc = w.iter().map(|v| v / bnorm).collect();
+    }
+    // The Ritz vector, normalised, back on the whole window of nodes.
+    let mut v = vec![0.0; comps.len()];
+    for (b, &c) in basis.iter().zip(&best.2) {
+        v.iter_mut().zip(b).for_each(|(x, z)| *x += c * z);
+    }
+    let norm = dots(&[&v], &v)[0].sqrt();
+    if norm > 0.0 {
+        v.iter_mut().for_each(|x| *x /= norm);
+    }
+    let mut vector = vec![0.0; n];
+    for (&c, &x) in comps.iter().zip(&v) {
+        vector[c] = x;
     }
     LanczosResult {
         lambda: best.0,
         residual: best.1,
-        vector: ritz(&basis, &best.2, &space),
+        vector,
         applications: alpha.len(),
     }
 }
@@ -440,15 +498,3 @@ fn tridiagonal_top(alpha: &[f64], beta: &[f64]) -> (f64, Vec<f64>) {
     )
 }
 
-fn ritz<const D: usize>(basis: &[Vec<f64>], y: &[f64], space: &NodalSpace<'_, '_, D>) -> Vec<f64> {
-    let n = basis[0].len();
-    let mut v = vec![0.0; n];
-    for (b, &c) in basis.iter().zip(y) {
-        v.iter_mut().zip(b).for_each(|(x, z)| *x += c * z);
-    }
-    let norm = space.dot(&v, &v).sqrt();
-    if norm > 0.0 {
-        v.iter_mut().for_each(|x| *x /= norm);
-    }
-    v
-}
