@@ -497,4 +497,3 @@ fn tridiagonal_top(alpha: &[f64], beta: &[f64]) -> (f64, Vec<f64>) {
         eig.eigenvectors.column(imax).iter().copied().collect(),
     )
 }
-
