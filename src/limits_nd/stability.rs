@@ -135,8 +135,8 @@ pub struct StabilityNd<const D: usize> {
     x_ref: Vec<Vector<D>>,
     /// `(V(dλ_t + 2μ_t), Vμ_t)` per particle at the refresh.
     moduli_ref: Vec<(f64, f64)>,
-    /// Smallest active nodal mass and active node count at the refresh.
-    mass_ref: (f64, usize),
+    /// Smallest active nodal mass at the refresh.
+    mass_ref: f64,
     /// `max diag(A)` at the refresh ([`super::stiffness::diagonal_argmax`]).
     diag_ref: f64,
     /// Growth of `max diag(A)` accepted without a refresh since the last one (≥ 1).
@@ -160,7 +160,7 @@ impl<const D: usize> StabilityNd<D> {
             ritz: Vec::new(),
             x_ref: Vec::new(),
             moduli_ref: Vec::new(),
-            mass_ref: (0.0, 0),
+            mass_ref: 0.0,
             diag_ref: 0.0,
             diag_growth: 1.0,
             gain: 1.0,
@@ -190,21 +190,23 @@ impl<const D: usize> StabilityNd<D> {
         (vol * (D as f64 * l + 2.0 * m), vol * m)
     }
 
-    /// Smallest active nodal mass and the number of active nodes (on a decomposed grid,
-    /// [`ViewNd::split`]: the smallest over the processes, and whether any node is active;
-    /// one reduction).
-    fn node_mass_summary(&self, view: &ViewNd<'_, D>) -> (f64, usize) {
+    /// Smallest active nodal mass, `+∞` when no node is active (on a decomposed grid,
+    /// [`ViewNd::split`], the smallest over the processes: one reduction).
+    fn smallest_node_mass(&self, view: &ViewNd<'_, D>) -> f64 {
         let local = view
             .node_mass
             .iter()
             .zip(view.node_active)
             .filter(|(_, &a)| a)
-            .fold((f64::INFINITY, 0), |(m, n), (&mi, _)| (m.min(mi), n + 1));
-        if view.split.is_none() {
-            return local;
+            .fold(f64::INFINITY, |m, (&mi, _)| m.min(mi));
+        match view.split {
+            None => local,
+            Some(_) => {
+                Self::agreement(&*self.reduce, view)
+                    .min_and_any(local, false)
+                    .0
+            }
         }
-        let (m, _) = Self::agreement(&*self.reduce, view).min_and_any(local.0, false);
-        (m, usize::from(m.is_finite()))
     }
 
     /// The reductions the processes agree with: a decomposed view's own
@@ -234,9 +236,8 @@ impl<const D: usize> StabilityNd<D> {
 
     /// `None` when the cached `λmax` must be recomputed, else the factor `r ≥ 1` it is
     /// multiplied by for the moduli's growth since the refresh (module docs).
-    fn staleness(&mut self, view: &ViewNd<'_, D>) -> Option<f64> {
-        // First, as every process must make the same reductions.
-        let (m_min, active) = self.node_mass_summary(view);
+    /// `m_min` is the view's [`Self::smallest_node_mass`].
+    fn staleness(&mut self, view: &ViewNd<'_, D>, m_min: f64) -> Option<f64> {
         if self.lambda.is_none()
             || self.age >= self.config.max_age
             || self.x_ref.len() != Self::n_refs(view)
@@ -245,10 +246,11 @@ impl<const D: usize> StabilityNd<D> {
             return None;
         }
         let growth_limit = 1.0 + self.config.refresh_modulus;
-        if active == 0 {
+        if m_min.is_infinite() {
+            // No active node.
             return None;
         }
-        if m_min < (1.0 - self.config.refresh_mass) * self.mass_ref.0 {
+        if m_min < (1.0 - self.config.refresh_mass) * self.mass_ref {
             // A lighter node: refresh only if some node's diagonal of A grew (module docs).
             let d = diagonal_argmax(view, &*self.reduce).0;
             let growth = d / self.diag_ref;
@@ -256,7 +258,7 @@ impl<const D: usize> StabilityNd<D> {
                 return None;
             }
             self.diag_growth = self.diag_growth.max(growth);
-            self.mass_ref.0 = m_min;
+            self.mass_ref = m_min;
         }
         let grid = view.split.as_ref().map_or(view.grid, |s| s.whole);
         let h = grid.h;
@@ -334,7 +336,8 @@ impl<const D: usize> StabilityNd<D> {
         self.moduli_ref = buf.chunks_exact(w).map(|c| (c[D], c[D + 1])).collect();
     }
 
-    fn refresh(&mut self, view: &ViewNd<'_, D>) -> Result<f64, LimitError> {
+    /// `m_min` is the view's [`Self::smallest_node_mass`].
+    fn refresh(&mut self, view: &ViewNd<'_, D>, m_min: f64) -> Result<f64, LimitError> {
         let n = view.n_nodes() * D;
         let space = NodalSpace::new(view, &*self.reduce);
         // Component `c` of the local vectors is component `global(c)` of the whole grid's:
@@ -391,7 +394,7 @@ impl<const D: usize> StabilityNd<D> {
         };
         self.ritz = r.vector;
         self.store_references(view);
-        self.mass_ref = self.node_mass_summary(view);
+        self.mass_ref = m_min;
         self.diag_ref = diag_max;
         self.diag_growth = 1.0;
         self.age = 0;
@@ -444,16 +447,18 @@ where
 
     fn propose(&mut self, state: &ViewNd<'_, D>) -> Result<Proposal, LimitError> {
         let mut metrics = Metrics::new();
+        // The smallest nodal mass first: a reduction every process makes, on every step.
+        let m_min = self.smallest_node_mass(state);
+        let local = self.staleness(state, m_min);
         // The processes of a split run agree: any stale part refreshes everywhere, and
         // the moduli growth is the largest of all (`crate::reduce`).
-        let local = self.staleness(state);
         let (neg_growth, stale) = Self::agreement(&*self.reduce, state)
             .min_and_any(-local.unwrap_or(1.0), local.is_none());
         let agreed = (!stale).then_some(-neg_growth);
         let lambda = match (agreed, self.lambda) {
             (Some(growth), Some(cached)) => cached * growth,
             _ => {
-                let l = self.refresh(state)?;
+                let l = self.refresh(state, m_min)?;
                 metrics.insert("refreshes".into(), self.refreshes as f64);
                 metrics.insert("lanczos_applications".into(), self.applications as f64);
                 l

@@ -198,18 +198,31 @@ impl<'v, 'a, const D: usize> NodalSpace<'v, 'a, D> {
 
     /// `aᵀb` over the whole grid, for each `a` in `left` (one reduction in all).
     pub fn dots(&self, left: &[&[f64]], b: &[f64]) -> Vec<f64> {
-        let Some(split) = &self.view.split else {
+        self.dots_counting(left, b, |c| {
+            self.view.split.as_ref().is_none_or(|s| s.owned[c / D])
+        })
+    }
+
+    /// `aᵀb` for each `a` in `left`, over entries `k` with `counted(k)` — this process's
+    /// owned entries, of vectors laid out as it likes — then over the processes of a
+    /// decomposed grid (one reduction in all). On an undivided grid every entry counts and
+    /// `counted` is not asked.
+    pub fn dots_counting(
+        &self,
+        left: &[&[f64]],
+        b: &[f64],
+        counted: impl Fn(usize) -> bool,
+    ) -> Vec<f64> {
+        if self.view.split.is_none() {
             return left.iter().map(|a| dot(a, b)).collect();
-        };
+        }
         let mut out: Vec<f64> = left
             .iter()
             .map(|a| {
                 let mut sum = 0.0;
-                for (i, &own) in split.owned.iter().enumerate() {
-                    if own {
-                        for c in i * D..(i + 1) * D {
-                            sum += a[c] * b[c];
-                        }
+                for (k, (x, y)) in a.iter().zip(b).enumerate() {
+                    if counted(k) {
+                        sum += x * y;
                     }
                 }
                 sum
@@ -217,14 +230,6 @@ impl<'v, 'a, const D: usize> NodalSpace<'v, 'a, D> {
             .collect();
         self.reduce.sum(&mut out);
         out
-    }
-
-    /// Element-wise sums over the processes of a decomposed grid (per-process partial
-    /// sums over owned nodes); nothing otherwise.
-    pub fn sum(&self, values: &mut [f64]) {
-        if self.view.split.is_some() {
-            self.reduce.sum(values);
-        }
     }
 
     /// `aᵀb` over the whole grid.
@@ -355,29 +360,11 @@ pub fn lanczos_reduced<const D: usize>(
         .filter(|&i| view.node_active[i])
         .flat_map(|i| i * D..(i + 1) * D)
         .collect();
-    let counted: Option<Vec<bool>> = view
-        .split
-        .as_ref()
-        .map(|s| comps.iter().map(|&c| s.owned[c / D]).collect());
-    let dots = |left: &[&[f64]], b: &[f64]| -> Vec<f64> {
-        let mut out: Vec<f64> = left
-            .iter()
-            .map(|a| match &counted {
-                Some(own) => a
-                    .iter()
-                    .zip(b)
-                    .zip(own)
-                    .filter(|(_, &o)| o)
-                    .map(|((x, y), _)| x * y)
-                    .sum(),
-                None => dot(a, b),
-            })
-            .collect();
-        if counted.is_some() {
-            space.sum(&mut out);
-        }
-        out
+    let owned: Vec<bool> = match &view.split {
+        Some(s) => comps.iter().map(|&c| s.owned[c / D]).collect(),
+        None => Vec::new(),
     };
+    let dots = |left: &[&[f64]], b: &[f64]| space.dots_counting(left, b, |k| owned[k]);
     let gather = |full: &[f64]| -> Vec<f64> { comps.iter().map(|&c| full[c]).collect() };
     let mut qc = gather(&q);
     let norm = dots(&[&qc], &qc)[0].sqrt();

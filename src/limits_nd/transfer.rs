@@ -62,7 +62,12 @@ pub fn apic_gain<const D: usize>(
 ) -> f64 {
     let nn = view.n_nodes();
     let inv_sqrt_m = inverse_sqrt_mass(view);
-    let v = |i: usize| Vector::<D>::from_fn(|a, _| y[i * D + a] * inv_sqrt_m[i]);
+    // v = M^{-1/2} y (zero at inactive nodes), and y on the active nodes.
+    let vs: Vec<f64> = (0..nn * D).map(|c| y[c] * inv_sqrt_m[c / D]).collect();
+    let ys: Vec<f64> = (0..nn * D)
+        .map(|c| if view.node_active[c / D] { y[c] } else { 0.0 })
+        .collect();
+    let v = |i: usize| Vector::<D>::from_column_slice(&vs[i * D..(i + 1) * D]);
     let h2 = Vector::<D>::from_fn(|a, _| inertia * view.grid.h[a] * view.grid.h[a]);
     let mut momentum = vec![0.0; nn * D];
     let w = view.weights;
@@ -85,17 +90,6 @@ pub fn apic_gain<const D: usize>(
     }
     space.complete(&mut momentum);
     // ⟨v, P v⟩_M = Σ_i v_i · (momentum_i): the mass cancels; ⟨v, v⟩_M = |y|² on active nodes.
-    let mut vs = vec![0.0; nn * D];
-    let mut ys = vec![0.0; nn * D];
-    for i in 0..nn {
-        if view.node_active[i] {
-            let vi = v(i);
-            for a in 0..D {
-                vs[i * D + a] = vi[a];
-                ys[i * D + a] = y[i * D + a];
-            }
-        }
-    }
     let p = space.dot(&vs, &momentum) / space.dot(&ys, &ys);
     1.0 + if p.is_finite() {
         p.clamp(0.0, 1.0)

@@ -19,18 +19,18 @@ pub(super) fn migrate<const D: usize>(
     s: &mut StateNd<D>,
     failed: bool,
 ) -> Result<(), usize> {
-    let n = s.x.len();
     let mut up = Vec::new();
     let mut down = Vec::new();
-    let mut keep = vec![true; n];
+    // Usually empty: no per-step allocation when no particle leaves.
+    let mut leaving = Vec::new();
     let mut stray = None;
     if !failed {
-        for (p, kept) in keep.iter_mut().enumerate() {
+        for p in 0..s.x.len() {
             let y = s.x[p][D - 1];
             if slab.owns(y) {
                 continue;
             }
-            *kept = false;
+            leaving.push(p);
             let out = match slab.direction(y) {
                 Some(true) => &mut up,
                 Some(false) => &mut down,
@@ -46,8 +46,12 @@ pub(super) fn migrate<const D: usize>(
     if let Some(p) = stray {
         return Err(p);
     }
-    if failed || (up.is_empty() && down.is_empty() && arrived.is_empty()) {
+    if failed || (leaving.is_empty() && arrived.is_empty()) {
         return Ok(());
+    }
+    let mut keep = vec![true; s.x.len()];
+    for &p in &leaving {
+        keep[p] = false;
     }
     let c = &*s.carried;
     let mut carried = CarriedNd::<D> {

@@ -57,16 +57,28 @@ impl<const D: usize> ParticlesNd<D> {
     /// The particles `[r·n/size, (r+1)·n/size)`: process `r`'s share of a run split over
     /// `size` processes by particle ([`super::SolverNd::new_distributed`]).
     pub fn block(&self, r: usize, size: usize) -> Self {
-        let n = self.len();
+        let block: Vec<usize> = Self::block_range(self.len(), r, size).collect();
+        self.select(&block)
+    }
+
+    /// The indices `[r·n/size, (r+1)·n/size)` of process `r`'s block of `n` particles.
+    pub(crate) fn block_range(n: usize, r: usize, size: usize) -> std::ops::Range<usize> {
         let size = size.max(1);
-        let (lo, hi) = (r.min(size) * n / size, (r + 1).min(size) * n / size);
+        r.min(size) * n / size..(r + 1).min(size) * n / size
+    }
+
+    /// The particles at `indices`, in that order.
+    pub(crate) fn select(&self, indices: &[usize]) -> Self {
+        fn pick<T: Clone>(v: &[T], indices: &[usize]) -> Vec<T> {
+            indices.iter().map(|&p| v[p].clone()).collect()
+        }
         Self {
-            x: self.x[lo..hi].to_vec(),
-            v: self.v[lo..hi].to_vec(),
-            mass: self.mass[lo..hi].to_vec(),
-            volume: self.volume[lo..hi].to_vec(),
-            domain: self.domain[lo..hi].to_vec(),
-            material: self.material[lo..hi].to_vec(),
+            x: pick(&self.x, indices),
+            v: pick(&self.v, indices),
+            mass: pick(&self.mass, indices),
+            volume: pick(&self.volume, indices),
+            domain: pick(&self.domain, indices),
+            material: pick(&self.material, indices),
         }
     }
 

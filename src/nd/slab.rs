@@ -211,25 +211,34 @@ impl<const D: usize> SlabNd<D> {
         )
     }
 
-    /// The two shifts of a halo swap: `pack(range)` the values to send for a shared range,
-    /// `unpack(range, received)` what the neighbour sent for it.
-    fn swap(
+    /// The two shifts every exchange makes: `to_up` to the upper neighbour while the lower
+    /// one's arrives, then `to_down` to the lower neighbour while the upper one's arrives.
+    /// Returns `(from below, from above)`.
+    fn shifts(
         &self,
         tags: (u16, u16),
+        to_up: &[f64],
+        to_down: &[f64],
+    ) -> (Option<Vec<f64>>, Option<Vec<f64>>) {
+        let from_down = self.reduce.exchange(self.up, self.down, tags.0, to_up);
+        let from_up = self.reduce.exchange(self.down, self.up, tags.1, to_down);
+        (from_down, from_up)
+    }
+
+    /// A halo swap: `pack(range)` the values this process sends for a shared range of
+    /// local nodes; returns each shared range with what the neighbour sent for it.
+    fn swap(
+        &self,
         mut pack: impl FnMut(Range<usize>) -> Vec<f64>,
-        mut unpack: impl FnMut(Range<usize>, &[f64]),
-    ) {
+    ) -> Vec<(Range<usize>, Vec<f64>)> {
         let (down, up) = self.shared();
         let to_up = up.clone().map(&mut pack).unwrap_or_default();
         let to_down = down.clone().map(&mut pack).unwrap_or_default();
-        let from_down = self.reduce.exchange(self.up, self.down, tags.0, &to_up);
-        let from_up = self.reduce.exchange(self.down, self.up, tags.1, &to_down);
-        if let (Some(r), Some(v)) = (down, from_down) {
-            unpack(r, &v);
-        }
-        if let (Some(r), Some(v)) = (up, from_up) {
-            unpack(r, &v);
-        }
+        let (from_down, from_up) = self.shifts((TAG_SUMS_UP, TAG_SUMS_DOWN), &to_up, &to_down);
+        [down.zip(from_down), up.zip(from_up)]
+            .into_iter()
+            .flatten()
+            .collect()
     }
 
     /// Completes the nodal sums `Σ S m`, `Σ S m v`, `−Σ V σ ∇S` of a particle → grid pass
@@ -241,21 +250,16 @@ impl<const D: usize> SlabNd<D> {
         node_a: &mut [Vector<D>],
     ) {
         let w = 1 + 2 * D;
-        let received: std::cell::RefCell<Vec<(Range<usize>, Vec<f64>)>> = Default::default();
-        self.swap(
-            (TAG_SUMS_UP, TAG_SUMS_DOWN),
-            |r| {
-                let mut buf = Vec::with_capacity(r.len() * w);
-                for i in r {
-                    buf.push(node_mass[i]);
-                    buf.extend(node_v[i].iter());
-                    buf.extend(node_a[i].iter());
-                }
-                buf
-            },
-            |r, v| received.borrow_mut().push((r, v.to_vec())),
-        );
-        for (r, v) in received.into_inner() {
+        let received = self.swap(|r| {
+            let mut buf = Vec::with_capacity(r.len() * w);
+            for i in r {
+                buf.push(node_mass[i]);
+                buf.extend(node_v[i].iter());
+                buf.extend(node_a[i].iter());
+            }
+            buf
+        });
+        for (r, v) in received {
             if v.len() != r.len() * w {
                 continue;
             }
@@ -270,21 +274,17 @@ impl<const D: usize> SlabNd<D> {
         }
     }
 
-    /// Sends the records ([`super::migration::ParticleRecord`]) of the particles that left the owned range up
-    /// and down to the neighbours that own them (module docs) and returns the records that
-    /// arrive, from below, then from above. Collective between neighbours.
+    /// Sends the records ([`super::migration::ParticleRecord`]) of the particles that left
+    /// the owned range up and down to the neighbours that own them (module docs) and
+    /// returns the records that arrive, from below, then from above. Collective between
+    /// neighbours.
     pub fn migrate(&self, up_going: &[f64], down_going: &[f64]) -> Vec<f64> {
-        let mut arrived = Vec::new();
-        let from_down = self
-            .reduce
-            .exchange(self.up, self.down, TAG_MOVE_UP, up_going);
-        let from_up = self
-            .reduce
-            .exchange(self.down, self.up, TAG_MOVE_DOWN, down_going);
-        for v in [from_down, from_up].into_iter().flatten() {
-            arrived.extend(v);
-        }
-        arrived
+        let (from_down, from_up) = self.shifts((TAG_MOVE_UP, TAG_MOVE_DOWN), up_going, down_going);
+        [from_down, from_up]
+            .into_iter()
+            .flatten()
+            .flatten()
+            .collect()
     }
 
     /// Where a particle at `y` that this process no longer owns goes: `Some(true)` up,
@@ -307,13 +307,8 @@ impl<const D: usize> NodalHalo for SlabNd<D> {
     }
 
     fn complete(&self, values: &mut [f64], width: usize) {
-        let received: std::cell::RefCell<Vec<(Range<usize>, Vec<f64>)>> = Default::default();
-        self.swap(
-            (TAG_SUMS_UP, TAG_SUMS_DOWN),
-            |r| values[r.start * width..r.end * width].to_vec(),
-            |r, v| received.borrow_mut().push((r, v.to_vec())),
-        );
-        for (r, v) in received.into_inner() {
+        let received = self.swap(|r| values[r.start * width..r.end * width].to_vec());
+        for (r, v) in received {
             let dst = &mut values[r.start * width..r.end * width];
             if v.len() == dst.len() {
                 dst.iter_mut().zip(&v).for_each(|(a, b)| *a += b);

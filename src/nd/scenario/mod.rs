@@ -31,7 +31,9 @@ use super::{GridNd, MaterialNd, ParticlesNd, SetupNdError, ShapeNd, SolverNd, Ve
 use crate::controller::ControllerConfig;
 use crate::fmt_num::Num;
 use crate::grid::Boundary;
+use crate::reduce::Reduce;
 use serde::{Deserialize, Serialize};
+use std::rc::Rc;
 
 mod particles;
 
@@ -48,16 +50,9 @@ pub enum PerAxis<T> {
     Many(Vec<T>),
 }
 
-/// The material law.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum MaterialKind {
-    /// Hypoelastic linear elasticity.
-    #[default]
-    LinearElastic,
-    /// Compressible neo-Hookean.
-    NeoHookean,
-}
+/// The material law: the 1D scenarios' (`linear_elastic`, the default, or `neo_hookean`),
+/// read here as [`MaterialNd`]'s hypoelastic linear or compressible neo-Hookean law.
+pub use crate::scenario::MaterialKind;
 
 /// A body filled with particles.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -369,31 +364,39 @@ impl ScenarioNd {
     pub fn build<const D: usize>(
         &self,
     ) -> Result<(SolverNd<D>, Option<PlaneWave<D>>), ScenarioNdError> {
-        let (grid, particles, gravity, wave) = self.parts::<D>()?;
-        let solver = SolverNd::new(grid, self.shape, particles, gravity)?;
-        Ok((solver, wave))
+        self.build_with(SolverNd::new)
     }
 
     /// [`Self::build`] for this process's part of a run split over the processes of
     /// `reduce` by particle ([`SolverNd::new_distributed`]).
     pub fn build_distributed<const D: usize>(
         &self,
-        reduce: std::rc::Rc<dyn crate::reduce::Reduce>,
+        reduce: Rc<dyn Reduce>,
     ) -> Result<(SolverNd<D>, Option<PlaneWave<D>>), ScenarioNdError> {
-        let (grid, particles, gravity, wave) = self.parts::<D>()?;
-        let solver = SolverNd::new_distributed(grid, self.shape, particles, gravity, reduce)?;
-        Ok((solver, wave))
+        self.build_with(|g, s, p, a| SolverNd::new_distributed(g, s, p, a, reduce))
     }
 
     /// [`Self::build`] for this process's slab of a run whose grid is decomposed along its
     /// last axis over the processes of `reduce` ([`SolverNd::new_slab`]).
     pub fn build_slab<const D: usize>(
         &self,
-        reduce: std::rc::Rc<dyn crate::reduce::Reduce>,
+        reduce: Rc<dyn Reduce>,
+    ) -> Result<(SolverNd<D>, Option<PlaneWave<D>>), ScenarioNdError> {
+        self.build_with(|g, s, p, a| SolverNd::new_slab(g, s, p, a, reduce))
+    }
+
+    /// The scenario's parts handed to one of the solver's constructors.
+    fn build_with<const D: usize>(
+        &self,
+        make: impl FnOnce(
+            GridNd<D>,
+            ShapeNd,
+            ParticlesNd<D>,
+            Vector<D>,
+        ) -> Result<SolverNd<D>, SetupNdError>,
     ) -> Result<(SolverNd<D>, Option<PlaneWave<D>>), ScenarioNdError> {
         let (grid, particles, gravity, wave) = self.parts::<D>()?;
-        let solver = SolverNd::new_slab(grid, self.shape, particles, gravity, reduce)?;
-        Ok((solver, wave))
+        Ok((make(grid, self.shape, particles, gravity)?, wave))
     }
 
     /// The grid, particles (with the initial velocity), gravity and exact solution.

@@ -62,6 +62,37 @@ pub(super) struct StateNd<const D: usize> {
     pub carried: Rc<CarriedNd<D>>,
 }
 
+/// How a run is split over processes.
+#[derive(Clone, Debug)]
+enum Split<const D: usize> {
+    /// One process.
+    Alone,
+    /// By particle, the whole grid on every process ([`SolverNd::new_distributed`]).
+    Particles(Rc<dyn Reduce>),
+    /// By grid, a slab per process ([`SolverNd::new_slab`]).
+    Slab(SlabNd<D>),
+}
+
+impl<const D: usize> Split<D> {
+    /// This process's slab of a decomposed grid.
+    fn slab(&self) -> Option<&SlabNd<D>> {
+        match self {
+            Split::Slab(s) => Some(s),
+            _ => None,
+        }
+    }
+
+    /// Completes the nodal sums `Σ S m`, `Σ S m v`, `−Σ V σ ∇S` of a particle → grid pass
+    /// over the processes (nothing on one process).
+    fn complete_nodal(&self, m: &mut [f64], v: &mut [Vector<D>], a: &mut [Vector<D>]) {
+        match self {
+            Split::Alone => {}
+            Split::Particles(r) => kernels::sum_nodal(&**r, m, v, a),
+            Split::Slab(s) => s.complete_nodal(m, v, a),
+        }
+    }
+}
+
 /// The reference d-dimensional MPM solver.
 #[derive(Clone, Debug)]
 pub struct SolverNd<const D: usize> {
@@ -76,11 +107,8 @@ pub struct SolverNd<const D: usize> {
     trial: StateNd<D>,
     has_trial: bool,
     node_v1: Vec<Vector<D>>,
-    /// The run's reductions when it is split over processes by particle
-    /// ([`SolverNd::new_distributed`]).
-    reduce: Option<Rc<dyn Reduce>>,
-    /// This process's slab when the grid is decomposed ([`SolverNd::new_slab`]).
-    slab: Option<SlabNd<D>>,
+    /// How the run is split over processes.
+    split: Split<D>,
     /// Number of particles over all processes.
     n_total: usize,
     /// Whether the trials carry their [`SummaryNd`] ([`Stepper::provide_summary`]).
@@ -90,7 +118,7 @@ pub struct SolverNd<const D: usize> {
 impl<const D: usize> SolverNd<D> {
     /// The whole grid: boundaries, walls and periodic wraps.
     fn whole(&self) -> &GridNd<D> {
-        self.slab.as_ref().map_or(&self.grid, |s| s.whole())
+        self.split.slab().map_or(&self.grid, |s| s.whole())
     }
 
     /// Weights and nodal fields of a state from its particle fields. With `failed` (this
@@ -113,12 +141,7 @@ impl<const D: usize> SolverNd<D> {
             return fault;
         }
         let complete = |m: &mut Vec<f64>, v: &mut Vec<Vector<D>>, a: &mut Vec<Vector<D>>| {
-            if let Some(r) = &self.reduce {
-                kernels::sum_nodal(&**r, m, v, a);
-            }
-            if let Some(slab) = &self.slab {
-                slab.complete_nodal(m, v, a);
-            }
+            self.split.complete_nodal(m, v, a)
         };
         kernels::particle_to_grid(
             &s.weights,
@@ -163,7 +186,7 @@ impl<const D: usize> SolverNd<D> {
     /// In a grid-decomposed run the totals of every process (particles move between
     /// them): one reduction. Otherwise `summary` itself.
     fn whole_run_summary(&self, summary: SummaryNd<D>) -> SummaryNd<D> {
-        let Some(slab) = &self.slab else {
+        let Some(slab) = self.split.slab() else {
             return summary;
         };
         let mut buf = vec![
@@ -185,22 +208,15 @@ impl<const D: usize> SolverNd<D> {
     /// so that the other processes are not left waiting (the step fails everywhere
     /// through the controller's agreement on the verdict).
     fn take_part_after_failure(&self) {
+        if let Split::Alone = self.split {
+            return;
+        }
         let nn = self.grid.n_nodes();
-        let zeros = || {
-            (
-                vec![0.0; nn],
-                vec![Vector::<D>::zeros(); nn],
-                vec![Vector::<D>::zeros(); nn],
-            )
-        };
-        if let Some(r) = &self.reduce {
-            let (mut m, mut v, mut a) = zeros();
-            kernels::sum_nodal(&**r, &mut m, &mut v, &mut a);
-        }
-        if let Some(slab) = &self.slab {
-            let (mut m, mut v, mut a) = zeros();
-            slab.complete_nodal(&mut m, &mut v, &mut a);
-        }
+        self.split.complete_nodal(
+            &mut vec![0.0; nn],
+            &mut vec![Vector::<D>::zeros(); nn],
+            &mut vec![Vector::<D>::zeros(); nn],
+        );
     }
 
     /// The (whole) grid.
@@ -320,7 +336,7 @@ impl<const D: usize> SolverNd<D> {
     }
 
     fn view_of<'a>(&'a self, s: &'a StateNd<D>) -> ViewNd<'a, D> {
-        let split = self.slab.as_ref().map(|slab| SplitNd {
+        let split = self.split.slab().map(|slab| SplitNd {
             whole: slab.whole(),
             global_node: slab.global_node(),
             owned: slab.owned(),

@@ -1,7 +1,7 @@
 //! Setting a [`SolverNd`] up: undivided, split by particle, or on a slab of a decomposed
 //! grid.
 
-use super::{CarriedNd, SolverNd, StateNd, INACTIVE_MASS_RATIO};
+use super::{CarriedNd, SolverNd, Split, StateNd, INACTIVE_MASS_RATIO};
 use crate::nd::particles::{ParticlesNd, SetupNdError};
 use crate::nd::slab::SlabNd;
 use crate::nd::{GridNd, ShapeNd, Tensor, Vector, WeightsNd};
@@ -18,7 +18,17 @@ impl<const D: usize> SolverNd<D> {
         gravity: Vector<D>,
     ) -> Result<Self, SetupNdError> {
         let (min_mass, n) = checked(&particles, &grid, shape)?;
-        Self::build(grid, shape, particles, gravity, min_mass, None, None, n)
+        let ids = (0..n as u64).collect();
+        Self::build(
+            grid,
+            shape,
+            particles,
+            ids,
+            gravity,
+            min_mass,
+            Split::Alone,
+            n,
+        )
     }
 
     /// This process's part of a run split over the processes of `reduce` by particle
@@ -41,12 +51,12 @@ impl<const D: usize> SolverNd<D> {
         reduce: Rc<dyn Reduce>,
     ) -> Result<Self, SetupNdError> {
         let (min_mass, n) = checked(&particles, &grid, shape)?;
-        let first = reduce.rank().min(reduce.size()) * n / reduce.size().max(1);
-        let block = particles.block(reduce.rank(), reduce.size());
-        let ids = (first as u64..).take(block.len()).collect();
-        let mut solver = Self::build(grid, shape, block, gravity, min_mass, Some(reduce), None, n)?;
-        Rc::make_mut(&mut solver.committed.carried).id = ids;
-        Ok(solver)
+        let block: Vec<usize> =
+            ParticlesNd::<D>::block_range(n, reduce.rank(), reduce.size()).collect();
+        let mine = particles.select(&block);
+        let ids = block.iter().map(|&p| p as u64).collect();
+        let split = Split::Particles(reduce);
+        Self::build(grid, shape, mine, ids, gravity, min_mass, split, n)
     }
 
     /// This process's part of a run whose grid is decomposed into slabs along its last
@@ -72,19 +82,19 @@ impl<const D: usize> SolverNd<D> {
         let mine: Vec<usize> = (0..n)
             .filter(|&p| slab.owns(particles.x[p][D - 1]))
             .collect();
-        let pick = |p: &usize| *p;
-        let own = ParticlesNd {
-            x: mine.iter().map(|p| particles.x[pick(p)]).collect(),
-            v: mine.iter().map(|p| particles.v[pick(p)]).collect(),
-            mass: mine.iter().map(|p| particles.mass[pick(p)]).collect(),
-            volume: mine.iter().map(|p| particles.volume[pick(p)]).collect(),
-            domain: mine.iter().map(|p| particles.domain[pick(p)]).collect(),
-            material: mine.iter().map(|p| particles.material[pick(p)]).collect(),
-        };
+        let own = particles.select(&mine);
+        let ids = mine.iter().map(|&p| p as u64).collect();
         let local = slab.local().clone();
-        let mut solver = Self::build(local, shape, own, gravity, min_mass, None, Some(slab), n)?;
-        Rc::make_mut(&mut solver.committed.carried).id = mine.iter().map(|&p| p as u64).collect();
-        Ok(solver)
+        Self::build(
+            local,
+            shape,
+            own,
+            ids,
+            gravity,
+            min_mass,
+            Split::Slab(slab),
+            n,
+        )
     }
 
     #[allow(clippy::too_many_arguments)]
@@ -92,17 +102,17 @@ impl<const D: usize> SolverNd<D> {
         grid: GridNd<D>,
         shape: ShapeNd,
         particles: ParticlesNd<D>,
+        ids: Vec<u64>,
         gravity: Vector<D>,
         min_mass: f64,
-        reduce: Option<Rc<dyn Reduce>>,
-        slab: Option<SlabNd<D>>,
+        split: Split<D>,
         n_total: usize,
     ) -> Result<Self, SetupNdError> {
         if gravity.iter().any(|g| !g.is_finite()) {
             return Err(SetupNdError::Gravity);
         }
         let n = particles.len();
-        let constrained = match &slab {
+        let constrained = match split.slab() {
             Some(s) => s
                 .global_node()
                 .iter()
@@ -132,7 +142,7 @@ impl<const D: usize> SolverNd<D> {
                 volume0: particles.volume,
                 domain: particles.domain,
                 material: particles.material,
-                id: (0..n as u64).collect(),
+                id: ids,
             }),
             ..StateNd::default()
         };
@@ -146,8 +156,7 @@ impl<const D: usize> SolverNd<D> {
             trial: StateNd::default(),
             has_trial: false,
             node_v1: Vec::new(),
-            reduce,
-            slab,
+            split,
             n_total,
             summarize: false,
         };

@@ -80,7 +80,7 @@ impl<const D: usize> SolverNd<D> {
             }),
             Ok(summary) => Ok(summary),
         };
-        if let Some(slab) = &self.slab {
+        if let Some(slab) = self.split.slab() {
             let moved = crate::nd::migration::migrate(slab, &mut trial, result.is_err());
             if let (Ok(_), Err(index)) = (&result, moved) {
                 // It jumped past the neighbouring slab: a blow-up, as leaving the box is.
