@@ -3,15 +3,16 @@
 //! * [`SoundSpeedNd`] — `α · min_p min_a h_a/(c_p + |v_a|)` (eq 49 generalised);
 //! * [`StabilityNd`] — `safety · √(2/λmax(M⁻¹K))` (eq 56 generalised, [`stiffness`]),
 //!   `λmax` refreshed by Lanczos only when particles have moved or moduli changed enough;
+//! * [`TemporalErrorNd`] — the temporal local error of eqs 20–30, judged by `dsm ≤ 1`
+//!   (the controller's filter turns `dsm` into a proposal);
 //! * [`GrowthNd`] — rejects a step whose mechanical energy grows and lowers the safety;
 //! * [`critical`] — the verification table of a d-dimensional layout (sound-speed step,
 //!   dense eq 56, empirical bisection on real runs).
 //!
 //! [`standard_limits`] builds the controller's list from a [`ControllerConfig`]:
 //! `sound_speed.alpha` → [`SoundSpeedNd`], `stability.safety` → [`StabilityNd`],
-//! `growth.enabled`/`growth.window` → [`GrowthNd`] (over `4 · window` steps, tolerance 10 %). The temporal-error limit of eqs 20–30
-//! is 1D only so far: in 2D/3D the step is set by stability, which is where the gain lies
-//! for explicit MPM (the temporal error of a stable step is far below the spatial one).
+//! `temporal` → [`TemporalErrorNd`] (when `temporal.enabled`),
+//! `growth.enabled`/`growth.window` → [`GrowthNd`] (over `4 · window` steps, tolerance 10 %).
 //!
 //! ```
 //! use mpm_dt::controller::{Controller, ControllerConfig};
@@ -40,11 +41,13 @@ mod growth;
 mod sound_speed;
 mod stability;
 pub mod stiffness;
+mod temporal_error;
 mod transfer;
 
 pub use growth::{GrowthNd, GROWTH};
 pub use sound_speed::{SoundSpeedNd, SOUND_SPEED};
 pub use stability::{StabilityNd, StabilityNdConfig, STABILITY};
+pub use temporal_error::TemporalErrorNd;
 pub use transfer::{apic_gain, TransferNd};
 
 use crate::controller::ControllerConfig;
@@ -53,7 +56,7 @@ use crate::limit::StepLimit;
 use crate::nd::{Vector, ViewNd};
 
 /// The standard limits of a d-dimensional run, as `config` enables and sets them
-/// (module docs): sound speed, stability, growth. `gravity` is the run's body force (the
+/// (module docs): sound speed, stability, temporal error, growth. `gravity` is the run's body force (the
 /// growth monitor counts its potential energy).
 pub fn standard_limits<const D: usize>(
     config: &ControllerConfig,
@@ -71,6 +74,9 @@ where
             safety: s.safety,
             ..StabilityNdConfig::default()
         })));
+    }
+    if config.temporal.enabled {
+        limits.push(Box::new(TemporalErrorNd::<D>::new(config.temporal.clone())));
     }
     if config.growth.enabled {
         // Over four of the configured windows, 10 % of the kinetic plus elastic energy.

@@ -1,0 +1,417 @@
+//! [`TemporalErrorNd`]: the temporal local error of the USL step (eqs 20–30) in `d`
+//! dimensions, the counterpart of the 1D [`crate::controller::TemporalError`] with the same
+//! settings ([`TemporalErrorConfig`]) and the same scaled norm.
+//!
+//! Per particle, the forward-Euler local errors of eqs 20/23 (velocity) and eq 28 (stress)
+//! are `le_v,p = dt²/2 · |d²v_p/dt²|` and `le_σ,p = dt²/2 · ‖d²σ_p/dt²‖`, with `|·|` the
+//! Euclidean norm of the velocity vector and `‖·‖` the Frobenius norm of the stress tensor
+//! (in 1D both are the absolute value, so the 1D limit is the case `d = 1`). The second
+//! derivatives come from successive rates of the committed and trial fields:
+//!
+//! ```text
+//! r_p = (u_p^{n+1} − u_p^n)/dt                     u = v (eq 22), u = σ (eq 27)
+//! d²u_p/dt² ≈ 2 (r_p − r_p^{prev}) / (dt + dt₋)    from the previous accepted step
+//! d²u_p/dt² ≈ (ṙ_p(t^{n+1}) − ṙ_p(t^n)) / dt       without one (first step)
+//! ```
+//!
+//! where the rates at the ends of the first step are read from the views' nodal fields:
+//! `a_p = Σ_i S_ip a_i` (eq 21) and `σ̇_p = λ_t tr(ε̇) I + 2μ_t ε̇`,
+//! `ε̇ = sym(Σ_i v_i ⊗ ∇S_ip)` (eqs 16, 24 with the tangent moduli of [`ViewNd`]). The
+//! scaled norm, the tolerances and the energy-equivalent field scales are the 1D limit's
+//! (`dsm ≤ 1` accepts; module docs of [`crate::controller::TemporalError`]): with
+//! `v̂_p = max(|v_p^n|, |v_p^{n+1}|)`, `σ̂_p` likewise and the squared P-wave impedance
+//! `z_p² = ρ_p (λ_t + 2μ_t)`,
+//!
+//! ```text
+//! dsm = sqrt( 1/(2N) Σ_p [ (le_v,p / w_v,p)² + (le_σ,p / w_σ,p)² ] )
+//! w_u,p = atol_u + atol_rel · max(‖u‖_∞, ‖u‖_∞ of the previous step) + rtol · û_p
+//! ‖v‖_∞ = max(max_p v̂_p, max_p σ̂_p / z_p),   ‖σ‖_∞ = max(max_p σ̂_p, max_p v̂_p z_p).
+//! ```
+//!
+//! **Runs over several processes.** Each process judges *its own* particles: its `dsm` is
+//! the norm over them with its own field scales, and the controller rejects the step when
+//! any process rejects it and takes the smallest filter proposal of all
+//! ([`crate::reduce`]). That is at least as strict as the norm over the whole run (an RMS
+//! over a part where errors concentrate is larger), needs no collective of its own — a
+//! process whose trial failed does not judge, so a reduction here could wait forever — and
+//! equals the undivided run's judgement on one process. On a grid-decomposed run
+//! ([`crate::nd::SplitNd`]) particles move between processes: they are matched across the
+//! committed state, the trial and the history by their run-wide ids, a particle that
+//! arrived in the trial is left out of that trial's estimate, and one that arrived in the
+//! previous step takes the first-step form.
+//!
+//! **Not carried over:** the balancing of eq 44's spatial error (`balance`), whose
+//! estimators are 1D; a configured `balance` is reported as an error, not ignored.
+
+use crate::controller::{metric, TemporalErrorConfig, TEMPORAL_ERROR};
+use crate::dimension::{Dim, Dimension};
+use crate::limit::{Judgement, LimitError, Metrics, Proposal, RejectCause, StepLimit, Verdict};
+use crate::nd::{Tensor, Vector, ViewNd};
+use serde::{Deserialize, Serialize};
+
+/// No partner (a particle absent from the other state).
+const NONE: u32 = u32::MAX;
+
+/// The history id of a particle left out of its trial's estimate (it has no rates).
+const LEFT_OUT: u64 = u64::MAX;
+
+/// Rates of the last accepted step, kept for the next estimate.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+struct History<const D: usize> {
+    dt: f64,
+    accel: Vec<Vector<D>>,
+    stress_rate: Vec<Tensor<D>>,
+    /// Run-wide particle ids, on a grid-decomposed run (else empty: the index is the id).
+    ids: Vec<u64>,
+    v_scale: f64,
+    sigma_scale: f64,
+}
+
+/// What one estimate gives.
+struct Estimate {
+    dsm: f64,
+    dsm_v: f64,
+    dsm_sigma: f64,
+    /// Particles in the norm (`N`).
+    count: usize,
+}
+
+/// The temporal-error limit in `d` dimensions: proposes nothing itself (the controller's
+/// filter does, from the `dsm` it reports) and judges each trial by `dsm ≤ 1` (module
+/// docs). The per-particle arrays are allocated once per run and reused.
+#[derive(Clone, Debug)]
+pub struct TemporalErrorNd<const D: usize> {
+    config: TemporalErrorConfig,
+    history: Option<History<D>>,
+    /// The rates of the last judged trial `(t, dt, rates)`, reused by `accepted`.
+    judged: Option<(f64, f64, History<D>)>,
+    /// A history no longer needed, whose arrays the next estimate overwrites.
+    spare: Option<History<D>>,
+    /// Per trial particle: `(|d²v/dt²|², ‖d²σ/dt²‖², v̂², σ̂²)`, negative when left out.
+    terms: Vec<[f64; 4]>,
+    /// Run-wide id → committed index, and id → history index (grid-decomposed runs).
+    slot_before: Vec<u32>,
+    slot_history: Vec<u32>,
+}
+
+impl<const D: usize> TemporalErrorNd<D> {
+    /// A limit with the tolerances of `config` (the 1D limit's settings; `enabled` is for
+    /// [`super::standard_limits`]).
+    pub fn new(config: TemporalErrorConfig) -> Self {
+        Self {
+            config,
+            history: None,
+            judged: None,
+            spare: None,
+            terms: Vec::new(),
+            slot_before: Vec::new(),
+            slot_history: Vec::new(),
+        }
+    }
+
+    fn other(message: String) -> LimitError {
+        LimitError::Other {
+            limit: TEMPORAL_ERROR.to_string(),
+            message,
+        }
+    }
+
+    /// The rates `(a_p, σ̇_p)` of particle `p` at the start of a step from `view`'s nodal
+    /// fields (eqs 21, 16, 24).
+    fn nodal_rates(view: &ViewNd<'_, D>, p: usize) -> (Vector<D>, Tensor<D>) {
+        let w = view.weights;
+        let mut a = Vector::<D>::zeros();
+        let mut l = Tensor::<D>::zeros();
+        for ((&i, &s), g) in w.nodes_of(p).iter().zip(w.s_of(p)).zip(w.grad_of(p)) {
+            let i = i as usize;
+            a += view.node_acceleration[i] * s;
+            l += view.node_velocity[i] * g.transpose();
+        }
+        let e = (l + l.transpose()) * 0.5;
+        let rate = Tensor::<D>::identity() * (view.lame_lambda[p] * e.trace())
+            + e * (2.0 * view.lame_mu[p]);
+        (a, rate)
+    }
+
+    /// Checks the slices the estimate reads.
+    fn check(view: &ViewNd<'_, D>) -> Result<(), LimitError> {
+        let n = view.n_particles();
+        let w = view.weights;
+        let nodes = view.node_mass.len();
+        let ok = [
+            view.v.len(),
+            view.sigma.len(),
+            view.density.len(),
+            view.lame_lambda.len(),
+            view.lame_mu.len(),
+            w.n_particles(),
+        ]
+        .iter()
+        .all(|&len| len == n)
+            && view.node_velocity.len() == nodes
+            && view.node_acceleration.len() == nodes
+            && w.n_nodes() == nodes
+            && view.split.is_none_or(|s| s.particle_id.len() == n);
+        if ok {
+            Ok(())
+        } else {
+            Err(Self::other(
+                "view's particle, weight and nodal arrays have inconsistent sizes".to_string(),
+            ))
+        }
+    }
+
+    /// Fills `slot[id] = index` for `ids` (growing `slot` to `n_total`, all [`NONE`]).
+    fn index_ids(slot: &mut Vec<u32>, ids: &[u64], n_total: usize) -> Result<(), LimitError> {
+        slot.clear();
+        slot.resize(n_total, NONE);
+        for (k, &id) in ids.iter().enumerate().filter(|(_, &id)| id != LEFT_OUT) {
+            let cell = slot
+                .get_mut(id as usize)
+                .ok_or_else(|| Self::other(format!("particle id {id} ≥ total {n_total}")))?;
+            *cell = k as u32;
+        }
+        Ok(())
+    }
+
+    /// Computes the estimate of a trial and writes its rates into `out`.
+    fn estimate(
+        &mut self,
+        before: &ViewNd<'_, D>,
+        after: &ViewNd<'_, D>,
+        dt: f64,
+        out: &mut History<D>,
+    ) -> Result<Estimate, LimitError> {
+        if self.config.balance.is_some() {
+            return Err(Self::other(
+                "temporal.balance (eq 44's spatial error) is 1D only".to_string(),
+            ));
+        }
+        Self::check(before)?;
+        Self::check(after)?;
+        let n = after.n_particles();
+        // Partners by run-wide id on a grid-decomposed run, else by index.
+        let split = match (before.split, after.split) {
+            (Some(b), Some(a)) => {
+                let total = b.n_particles_total.max(a.n_particles_total);
+                Self::index_ids(&mut self.slot_before, b.particle_id, total)?;
+                match &self.history {
+                    Some(h) if !h.ids.is_empty() => {
+                        Self::index_ids(&mut self.slot_history, &h.ids, total)?
+                    }
+                    _ => self.slot_history.clear(),
+                }
+                Some(a.particle_id)
+            }
+            (None, None) if before.n_particles() == n => None,
+            _ => {
+                return Err(Self::other(format!(
+                    "committed ({}) and trial ({n}) particles cannot be matched",
+                    before.n_particles()
+                )))
+            }
+        };
+        let history = self.history.as_ref().filter(|h| match split {
+            None => h.ids.is_empty() && h.accel.len() == n,
+            Some(_) => !h.ids.is_empty(),
+        });
+        let inv_dt = 1.0 / dt;
+        // Every entry is written below (the arrays keep their length between steps).
+        out.accel.resize(n, Vector::<D>::zeros());
+        out.stress_rate.resize(n, Tensor::<D>::zeros());
+        out.ids.clear();
+        if let Some(ids) = split {
+            out.ids.extend_from_slice(ids);
+        }
+        self.terms.resize(n, [-1.0; 4]);
+        let (mut vm, mut sm, mut vs2, mut sv2) = (0.0_f64, 0.0_f64, 0.0_f64, 0.0_f64);
+        for p in 0..n {
+            let (q, h) = match split {
+                None => (p, history.map(|_| p)),
+                Some(ids) => {
+                    let id = ids[p] as usize;
+                    let q = self.slot_before.get(id).copied().unwrap_or(NONE);
+                    let h = self.slot_history.get(id).copied().unwrap_or(NONE);
+                    if q == NONE {
+                        // Arrived in this trial: left out (module docs), and without rates
+                        // for the next step.
+                        self.terms[p] = [-1.0; 4];
+                        out.ids[p] = LEFT_OUT;
+                        continue;
+                    }
+                    (
+                        q as usize,
+                        history.filter(|_| h != NONE).map(|_| h as usize),
+                    )
+                }
+            };
+            let (v0, v1) = (before.v[q], after.v[p]);
+            let (s0, s1) = (before.sigma[q], after.sigma[p]);
+            let accel = (v1 - v0) * inv_dt;
+            let stress_rate = (s1 - s0) * inv_dt;
+            out.accel[p] = accel;
+            out.stress_rate[p] = stress_rate;
+            let (d2v, d2s) = match (history, h) {
+                (Some(hist), Some(h)) => {
+                    let span = 0.5 * (dt + hist.dt);
+                    let inv_span = 1.0 / span;
+                    (
+                        (accel - hist.accel[h]) * inv_span,
+                        (stress_rate - hist.stress_rate[h]) * inv_span,
+                    )
+                }
+                _ => {
+                    let (a0, r0) = Self::nodal_rates(before, q);
+                    let (a1, r1) = Self::nodal_rates(after, p);
+                    ((a1 - a0) * inv_dt, (r1 - r0) * inv_dt)
+                }
+            };
+            // Squares throughout: one square root per field and particle, in the sums.
+            let v_hat2 = v0.norm_squared().max(v1.norm_squared());
+            let s_hat2 = s0.norm_squared().max(s1.norm_squared());
+            self.terms[p] = [d2v.norm_squared(), d2s.norm_squared(), v_hat2, s_hat2];
+            vm = vm.max(v_hat2);
+            sm = sm.max(s_hat2);
+            let z2 = before.density[q] * (before.lame_lambda[q] + 2.0 * before.lame_mu[q]);
+            if z2.is_finite() && z2 > 0.0 {
+                vs2 = vs2.max(s_hat2 / z2);
+                sv2 = sv2.max(v_hat2 * z2);
+            }
+        }
+        let v_scale = vm.max(vs2).sqrt();
+        let sigma_scale = sm.max(sv2).sqrt();
+        let (prev_v, prev_s) = self
+            .history
+            .as_ref()
+            .map_or((0.0, 0.0), |h| (h.v_scale, h.sigma_scale));
+        let c = &self.config;
+        let half_dt2 = 0.5 * dt * dt;
+        let abs_v = c.atol_v + c.atol_rel * v_scale.max(prev_v);
+        let abs_s = c.atol_sigma + c.atol_rel * sigma_scale.max(prev_s);
+        // `(le/w)²` with `le² = (dt²/2)² |d²u/dt²|²`; 0 when `le = 0`, whatever `w`.
+        let c2 = half_dt2 * half_dt2;
+        let term = |d2: f64, w: f64| {
+            let r = c2 * d2 / (w * w).max(f64::MIN_POSITIVE);
+            if d2 == 0.0 {
+                0.0
+            } else {
+                r
+            }
+        };
+        // Four independent accumulators (the order of a sum of ~10⁵ terms only moves its
+        // last bits), so that the loop vectorises; left-out particles add nothing.
+        let (mut sum_v, mut sum_s, mut counted) = ([0.0_f64; 4], [0.0_f64; 4], [0.0_f64; 4]);
+        for chunk in self.terms.chunks(4) {
+            for (k, &[d2v, d2s, v_hat2, s_hat2]) in chunk.iter().enumerate() {
+                let kept = d2v >= 0.0;
+                let tv = term(d2v, abs_v + c.rtol * v_hat2.sqrt());
+                let ts = term(d2s, abs_s + c.rtol * s_hat2.sqrt());
+                sum_v[k] += if kept { tv } else { 0.0 };
+                sum_s[k] += if kept { ts } else { 0.0 };
+                counted[k] += if kept { 1.0 } else { 0.0 };
+            }
+        }
+        let fold = |l: [f64; 4]| (l[0] + l[1]) + (l[2] + l[3]);
+        let (sum_v, sum_s, count) = (fold(sum_v), fold(sum_s), fold(counted) as usize);
+        out.dt = dt;
+        out.v_scale = v_scale;
+        out.sigma_scale = sigma_scale;
+        let nf = count.max(1) as f64;
+        Ok(Estimate {
+            dsm: ((sum_v + sum_s) / (2.0 * nf)).sqrt(),
+            dsm_v: (sum_v / nf).sqrt(),
+            dsm_sigma: (sum_s / nf).sqrt(),
+            count,
+        })
+    }
+
+    /// A history whose arrays the next estimate overwrites.
+    fn take_buffer(&mut self) -> History<D> {
+        self.spare.take().unwrap_or_default()
+    }
+}
+
+impl<const D: usize> StepLimit<D> for TemporalErrorNd<D>
+where
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+{
+    fn name(&self) -> &str {
+        TEMPORAL_ERROR
+    }
+
+    /// No opinion (`∞`): the controller's filter proposes the accuracy-limited step.
+    fn propose(&mut self, _state: &ViewNd<'_, D>) -> Result<Proposal, LimitError> {
+        Ok(Proposal::no_opinion())
+    }
+
+    fn judge(
+        &mut self,
+        before: &ViewNd<'_, D>,
+        after: &ViewNd<'_, D>,
+        dt: f64,
+    ) -> Result<Judgement, LimitError> {
+        let mut rates = self.take_buffer();
+        let e = match self.estimate(before, after, dt, &mut rates) {
+            Ok(e) => e,
+            Err(err) => {
+                self.spare = Some(rates);
+                return Err(err);
+            }
+        };
+        if let Some((_, _, old)) = self.judged.replace((before.t, dt, rates)) {
+            self.spare = Some(old);
+        }
+        let mut metrics = Metrics::new();
+        metrics.insert(metric::DSM.to_string(), e.dsm);
+        metrics.insert("dsm_v".to_string(), e.dsm_v);
+        metrics.insert("dsm_sigma".to_string(), e.dsm_sigma);
+        metrics.insert("dsm_particles".to_string(), e.count as f64);
+        let verdict = if e.dsm <= 1.0 {
+            Verdict::Accept
+        } else {
+            Verdict::Reject {
+                cause: if e.dsm.is_nan() {
+                    RejectCause::NonFinite
+                } else {
+                    RejectCause::Error
+                },
+                suggested_dt: None,
+            }
+        };
+        Ok(Judgement { verdict, metrics })
+    }
+
+    fn accepted(&mut self, before: &ViewNd<'_, D>, after: &ViewNd<'_, D>, dt: f64) {
+        // The judged trial's rates when it is this one, else recomputed.
+        let new = match self.judged.take() {
+            Some((t, d, h)) if t.to_bits() == before.t.to_bits() && d.to_bits() == dt.to_bits() => {
+                Some(h)
+            }
+            stale => {
+                let mut h = stale.map(|(_, _, h)| h).unwrap_or_default();
+                self.estimate(before, after, dt, &mut h).ok().map(|_| h)
+            }
+        };
+        if let Some(h) = new {
+            if let Some(old) = self.history.replace(h) {
+                self.spare = Some(old);
+            }
+        }
+    }
+
+    fn rejected(&mut self, _dt: f64, _cause: RejectCause) {
+        if let Some((_, _, h)) = self.judged.take() {
+            self.spare = Some(h);
+        }
+    }
+
+    fn save_state(&self) -> Option<serde_json::Value> {
+        serde_json::to_value(&self.history).ok()
+    }
+
+    fn restore_state(&mut self, state: &serde_json::Value) -> Result<(), LimitError> {
+        self.history = serde_json::from_value(state.clone())
+            .map_err(|e| Self::other(format!("cannot restore state: {e}")))?;
+        Ok(())
+    }
+}

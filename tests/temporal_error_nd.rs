@@ -1,0 +1,132 @@
+//! Capability: the temporal local error of eqs 20–30 in 2D/3D (`TemporalErrorNd`) — its
+//! `dsm` is second order in the step on a smooth plane wave, zero on a rigid translation,
+//! binds the controller's step when its tolerance is tight, and a setting it cannot honour
+//! (the 1D-only balancing) is a typed error, not ignored.
+
+use mpm_dt::controller::{bound, metric, Controller, ControllerConfig, Outcome};
+use mpm_dt::limit::StepLimit;
+use mpm_dt::limits_nd::{standard_limits, TemporalErrorNd};
+use mpm_dt::nd::scenario::ScenarioNd;
+use mpm_dt::nd::{SolverNd, Vector};
+use mpm_dt::Stepper;
+
+fn plane_wave() -> (SolverNd<2>, ScenarioNd) {
+    let scenario = ScenarioNd::from_file(format!(
+        "{}/scenarios/nd/plane_p_2d.json",
+        env!("CARGO_MANIFEST_DIR")
+    ))
+    .expect("scenario");
+    let (solver, _) = scenario.build::<2>().expect("solver");
+    (solver, scenario)
+}
+
+/// `dsm` of a trial of step `dt` from the solver's committed state (not accepted).
+fn dsm_of(limit: &mut TemporalErrorNd<2>, s: &mut SolverNd<2>, dt: f64) -> f64 {
+    s.try_step(dt).expect("trial");
+    let j = limit
+        .judge(&s.view(), &s.trial_view().expect("trial view"), dt)
+        .expect("judged");
+    s.reject();
+    limit.rejected(dt, mpm_dt::limit::RejectCause::Error);
+    j.metrics[metric::DSM]
+}
+
+#[test]
+fn dsm_is_second_order_in_the_step_on_a_plane_wave() {
+    let (mut s, _) = plane_wave();
+    let mut limit = TemporalErrorNd::<2>::new(Default::default());
+    // h/c_p = 0.0625/1.16: steps of 0.01 are well inside the stability limit.
+    let dt0 = 0.01;
+    for _ in 0..5 {
+        s.try_step(dt0).expect("trial");
+        let (before, after) = (s.view(), s.trial_view().expect("trial view"));
+        limit.judge(&before, &after, dt0).expect("judged");
+        limit.accepted(&before, &after, dt0);
+        s.accept().expect("accept");
+    }
+    // From the same state and history: the history form's d²u/dt² does not depend on the
+    // step to first order, so dsm = dt²/2·|d²u/dt²|/w scales by 4 when dt doubles.
+    let small = dsm_of(&mut limit, &mut s, dt0);
+    let large = dsm_of(&mut limit, &mut s, 2.0 * dt0);
+    let ratio = large / small;
+    assert!(small > 0.0 && small < 1.0, "dsm {small}");
+    eprintln!("dsm {small:.3e} → {large:.3e}, ratio {ratio:.3}");
+    assert!(
+        (3.3..4.7).contains(&ratio),
+        "dsm ratio {ratio} ({small} → {large})"
+    );
+}
+
+#[test]
+fn a_rigid_translation_has_no_temporal_error() {
+    let (mut s, _) = plane_wave();
+    let n = s.view().n_particles();
+    let v = vec![Vector::<2>::new(0.3, -0.2); n];
+    let sigma = vec![mpm_dt::nd::Tensor::<2>::zeros(); n];
+    s.set_velocity_and_stress(&v, &sigma).expect("state set");
+    let mut limit = TemporalErrorNd::<2>::new(Default::default());
+    for step in 0..3 {
+        s.try_step(0.01).expect("trial");
+        let (before, after) = (s.view(), s.trial_view().expect("trial view"));
+        let j = limit.judge(&before, &after, 0.01).expect("judged");
+        limit.accepted(&before, &after, 0.01);
+        assert!(
+            j.metrics[metric::DSM] < 1e-12,
+            "step {step}: {:?}",
+            j.metrics
+        );
+        s.accept().expect("accept");
+    }
+}
+
+#[test]
+fn a_tight_tolerance_binds_the_step() {
+    let run = |rtol: f64| {
+        let (mut s, scenario) = plane_wave();
+        let mut config: ControllerConfig = scenario.controller_config().expect("config");
+        config.temporal.rtol = rtol;
+        config.temporal.atol_rel = rtol;
+        let limits = standard_limits::<2>(&config, Vector::<2>::zeros());
+        let mut c = Controller::<2>::new(config, limits).expect("controller");
+        let (mut steps, mut by_error) = (0, 0);
+        c.run_until(&mut s, 0.3, &mut |d| {
+            if d.outcome == Outcome::Accepted {
+                steps += 1;
+            }
+            if d.binding == bound::FILTER || d.rejected_by.as_deref() == Some("temporal_error") {
+                by_error += 1;
+            }
+        })
+        .expect("run");
+        (steps, by_error)
+    };
+    let (loose_steps, loose_bound) = run(0.05);
+    let (tight_steps, tight_bound) = run(1e-5);
+    eprintln!(
+        "steps {loose_steps} / {tight_steps}, bound by the error {loose_bound} / {tight_bound}"
+    );
+    assert_eq!(
+        loose_bound, 0,
+        "the default tolerance never binds on this wave"
+    );
+    assert!(tight_bound > 0, "the tight tolerance never bound the step");
+    assert!(
+        tight_steps > 2 * loose_steps,
+        "{tight_steps} steps against {loose_steps}"
+    );
+}
+
+#[test]
+fn balancing_is_reported_as_an_error_in_2d() {
+    let (mut s, _) = plane_wave();
+    let config = mpm_dt::controller::TemporalErrorConfig {
+        balance: Some(1.0),
+        ..Default::default()
+    };
+    let mut limit = TemporalErrorNd::<2>::new(config);
+    s.try_step(0.01).expect("trial");
+    let err = limit
+        .judge(&s.view(), &s.trial_view().expect("trial view"), 0.01)
+        .expect_err("balance is 1D only");
+    assert!(err.to_string().contains("balance"), "{err}");
+}
