@@ -156,3 +156,29 @@ fn a_size_that_cannot_be_allocated_is_refused_up_front() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("GiB"), "{err}");
 }
+
+#[test]
+fn critical_dt_answers_quickly_on_a_large_1d_scenario() {
+    // 10⁵ particles: the dense and real-run columns are skipped (null), not attempted (a
+    // dense matrix of this size does not fit in memory; the runs would take minutes).
+    let start = std::time::Instant::now();
+    let out = run(
+        "critical_dt",
+        &["--scenario", "scenarios/gimp_uniform_1e5.json", "--json"],
+    );
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("json");
+    assert_eq!(v["particles"], 100_000);
+    assert!(v["dt_empirical"].is_null() && v["lambda_max_dense"].is_null());
+    assert!(v["skipped"].is_string());
+    let ratio = v["ratios_to_h_over_c"]["eq56"]
+        .as_f64()
+        .expect("eq56 ratio");
+    assert!((ratio - 0.5_f64.sqrt()).abs() < 1e-3, "{ratio}");
+    assert!(start.elapsed().as_secs() < 10, "{:?}", start.elapsed());
+}

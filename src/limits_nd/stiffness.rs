@@ -35,10 +35,32 @@ pub fn apply<const D: usize>(view: &ViewNd<'_, D>, u: &[f64], y: &mut [f64]) {
     apply_scaled(view, &inverse_sqrt_mass(view), u, y);
 }
 
-/// [`apply`] with `M^{-1/2}` given ([`inverse_sqrt_mass`]), for repeated products.
+/// [`apply`] with `M^{-1/2}` given ([`inverse_sqrt_mass`]).
 pub fn apply_scaled<const D: usize>(
     view: &ViewNd<'_, D>,
     inv_sqrt_m: &[f64],
+    u: &[f64],
+    y: &mut [f64],
+) {
+    apply_with(view, inv_sqrt_m, &volume_moduli(view), u, y);
+}
+
+/// `(V_p λ_t, V_p μ_t)` per particle, `V_p = det(F_p) V⁰_p`: what every product with `K`
+/// reads of a particle besides its weights, formed once for repeated products.
+pub(super) fn volume_moduli<const D: usize>(view: &ViewNd<'_, D>) -> Vec<(f64, f64)> {
+    (0..view.n_particles())
+        .map(|p| {
+            let vol = crate::nd::det(&view.f[p]) * view.volume0[p];
+            (vol * view.lame_lambda[p], vol * view.lame_mu[p])
+        })
+        .collect()
+}
+
+/// [`apply_scaled`] with the particles' [`volume_moduli`] given.
+pub(super) fn apply_with<const D: usize>(
+    view: &ViewNd<'_, D>,
+    inv_sqrt_m: &[f64],
+    moduli: &[(f64, f64)],
     u: &[f64],
     y: &mut [f64],
 ) {
@@ -46,7 +68,7 @@ pub fn apply_scaled<const D: usize>(
     debug_assert!(u.len() == nn * D && y.len() == nn * D && inv_sqrt_m.len() == nn);
     y.fill(0.0);
     let w = &view.weights;
-    for p in 0..view.n_particles() {
+    for (p, &(vol_lambda, vol_mu)) in moduli.iter().enumerate().take(view.n_particles()) {
         let nodes = w.nodes_of(p);
         let grads = w.grad_of(p);
         let mut l = Tensor::<D>::zeros();
@@ -60,10 +82,7 @@ pub fn apply_scaled<const D: usize>(
             l += ui * g.transpose();
         }
         let eps = (l + l.transpose()) * 0.5;
-        let vol = crate::nd::det(&view.f[p]) * view.volume0[p];
-        let stress = (Tensor::<D>::identity() * (view.lame_lambda[p] * eps.trace())
-            + eps * (2.0 * view.lame_mu[p]))
-            * vol;
+        let stress = Tensor::<D>::identity() * (vol_lambda * eps.trace()) + eps * (2.0 * vol_mu);
         for (&i, g) in nodes.iter().zip(grads) {
             let i = i as usize;
             let s = inv_sqrt_m[i];
@@ -280,10 +299,11 @@ pub fn dense<const D: usize>(view: &ViewNd<'_, D>) -> Mat<f64> {
     let mut e = vec![0.0; n];
     let mut col = vec![0.0; n];
     let inv_sqrt_m = inverse_sqrt_mass(view);
+    let moduli = volume_moduli(view);
     for j in 0..n {
         e.fill(0.0);
         e[j] = 1.0;
-        apply_scaled(view, &inv_sqrt_m, &e, &mut col);
+        apply_with(view, &inv_sqrt_m, &moduli, &e, &mut col);
         for (i, &c) in col.iter().enumerate() {
             a[(i, j)] = c;
         }
@@ -380,6 +400,7 @@ pub fn lanczos_reduced<const D: usize>(
     let mut qf = vec![0.0; n];
     let mut wf = vec![0.0; n];
     let inv_sqrt_m = inverse_sqrt_mass(view);
+    let moduli = volume_moduli(view);
     // (Ritz value, residual bound, coordinates in the basis) of the latest iteration.
     let mut best: (f64, f64, Vec<f64>) = (0.0, f64::INFINITY, vec![1.0]);
     // Consecutive iterations in which the Ritz value moved by less than `tol·λ/10`.
@@ -388,7 +409,7 @@ pub fn lanczos_reduced<const D: usize>(
         for (&c, &v) in comps.iter().zip(&qc) {
             qf[c] = v;
         }
-        apply_scaled(view, &inv_sqrt_m, &qf, &mut wf);
+        apply_with(view, &inv_sqrt_m, &moduli, &qf, &mut wf);
         space.complete(&mut wf);
         let mut w = gather(&wf);
         let a = dots(&[&qc], &w)[0];

@@ -28,6 +28,13 @@
 //! ‖v‖_∞ = max(max_p v̂_p, max_p σ̂_p / z_p),   ‖σ‖_∞ = max(max_p σ̂_p, max_p v̂_p z_p).
 //! ```
 //!
+//! **One pass.** The 1D limit takes `max(this step's scale, the previous step's)`; here
+//! the weights keep the previous step's scale unless this step's exceeds it by more than
+//! 10 % (then the sums are redone with the larger one). A scale that grew by less makes
+//! the weights at most 10 % smaller in their `atol_rel` part than the 1D definition's —
+//! a stricter test — and saves the second pass over the particles that the scale, known
+//! only after the first, would otherwise need.
+//!
 //! **Runs over several processes.** Each process judges *its own* particles: its `dsm` is
 //! the norm over them with its own field scales, and the controller rejects the step when
 //! any process rejects it and takes the smallest filter proposal of all
@@ -52,6 +59,10 @@ use serde::{Deserialize, Serialize};
 /// No partner (a particle absent from the other state).
 const NONE: u32 = u32::MAX;
 
+/// Relative growth of a field scale over the previous step's below which the weights keep
+/// the previous scale (one pass over the particles instead of two).
+const SCALE_SLACK: f64 = 0.1;
+
 /// The history id of a particle left out of its trial's estimate (it has no rates).
 const LEFT_OUT: u64 = u64::MAX;
 
@@ -65,6 +76,25 @@ struct History<const D: usize> {
     ids: Vec<u64>,
     v_scale: f64,
     sigma_scale: f64,
+}
+
+/// How trial particles find their committed state and their history.
+struct Pairing<'h, const D: usize> {
+    /// The trial's run-wide ids on a grid-decomposed run (partners through the id
+    /// tables), `None` when index `p` is the same particle in every state.
+    split: Option<&'h [u64]>,
+    /// The history, when it describes these particles.
+    history: Option<&'h History<D>>,
+}
+
+/// What one sweep over the particles gives.
+struct Sweep {
+    /// `Σ (le_v/w_v)²`, `Σ (le_σ/w_σ)²`.
+    sums: [f64; 2],
+    /// Particles in the sums (`N`).
+    count: usize,
+    /// `max v̂²`, `max σ̂²`, `max σ̂²/z²`, `max v̂² z²`.
+    maxima: [f64; 4],
 }
 
 /// What one estimate gives.
@@ -87,8 +117,6 @@ pub struct TemporalErrorNd<const D: usize> {
     judged: Option<(f64, f64, History<D>)>,
     /// A history no longer needed, whose arrays the next estimate overwrites.
     spare: Option<History<D>>,
-    /// Per trial particle: `(|d²v/dt²|², ‖d²σ/dt²‖², v̂², σ̂²)`, negative when left out.
-    terms: Vec<[f64; 4]>,
     /// Run-wide id → committed index, and id → history index (grid-decomposed runs).
     slot_before: Vec<u32>,
     slot_history: Vec<u32>,
@@ -103,7 +131,6 @@ impl<const D: usize> TemporalErrorNd<D> {
             history: None,
             judged: None,
             spare: None,
-            terms: Vec::new(),
             slot_before: Vec::new(),
             slot_history: Vec::new(),
         }
@@ -215,19 +242,83 @@ impl<const D: usize> TemporalErrorNd<D> {
             None => h.ids.is_empty() && h.accel.len() == n,
             Some(_) => !h.ids.is_empty(),
         });
-        let inv_dt = 1.0 / dt;
-        // Every entry is written below (the arrays keep their length between steps).
+        // Every entry is written by the first sweep (the arrays keep their length).
         out.accel.resize(n, Vector::<D>::zeros());
         out.stress_rate.resize(n, Tensor::<D>::zeros());
         out.ids.clear();
         if let Some(ids) = split {
             out.ids.extend_from_slice(ids);
         }
-        self.terms.resize(n, [-1.0; 4]);
-        let (mut vm, mut sm, mut vs2, mut sv2) = (0.0_f64, 0.0_f64, 0.0_f64, 0.0_f64);
-        for p in 0..n {
-            let (q, h) = match split {
-                None => (p, history.map(|_| p)),
+        // The weights need this trial's field scales, known only after a pass: the first
+        // sweep uses the previous step's, and a second sweep, writing nothing, redoes the
+        // sums with `max(new, previous)` only when a scale grew by more than
+        // `SCALE_SLACK` (the first step; a run gaining energy). Below that, the weights are
+        // at most that much smaller than the 1D limit's: a stricter test (module docs).
+        let c = &self.config;
+        let abs_of =
+            |sv: f64, ss: f64| (c.atol_v + c.atol_rel * sv, c.atol_sigma + c.atol_rel * ss);
+        let (prev_v, prev_s) = self
+            .history
+            .as_ref()
+            .map_or((0.0, 0.0), |h| (h.v_scale, h.sigma_scale));
+        let pair = Pairing { split, history };
+        let first = self.sweep(before, after, dt, &pair, abs_of(prev_v, prev_s), Some(out));
+        let [vm, sm, vs2, sv2] = first.maxima;
+        let v_scale = vm.max(vs2).sqrt();
+        let sigma_scale = sm.max(sv2).sqrt();
+        let grew = |new: f64, prev: f64| new > (1.0 + SCALE_SLACK) * prev;
+        let sweep = if !grew(v_scale, prev_v) && !grew(sigma_scale, prev_s) {
+            first
+        } else {
+            let abs = abs_of(v_scale.max(prev_v), sigma_scale.max(prev_s));
+            self.sweep(before, after, dt, &pair, abs, None)
+        };
+        out.dt = dt;
+        out.v_scale = v_scale;
+        out.sigma_scale = sigma_scale;
+        let [sum_v, sum_s] = sweep.sums;
+        let nf = sweep.count.max(1) as f64;
+        Ok(Estimate {
+            dsm: ((sum_v + sum_s) / (2.0 * nf)).sqrt(),
+            dsm_v: (sum_v / nf).sqrt(),
+            dsm_sigma: (sum_s / nf).sqrt(),
+            count: sweep.count,
+        })
+    }
+
+    /// One pass over the trial's particles: their rates (written into `out` when given),
+    /// the maxima behind the field scales, and the sums of `(le/w)²` with the absolute
+    /// parts `abs = (atol_v + atol_rel ‖v‖_∞, atol_σ + atol_rel ‖σ‖_∞)` of the weights.
+    fn sweep(
+        &self,
+        before: &ViewNd<'_, D>,
+        after: &ViewNd<'_, D>,
+        dt: f64,
+        pair: &Pairing<'_, D>,
+        (abs_v, abs_s): (f64, f64),
+        mut out: Option<&mut History<D>>,
+    ) -> Sweep {
+        let inv_dt = 1.0 / dt;
+        let rtol = self.config.rtol;
+        // `(le/w)²` with `le² = (dt²/2)² |d²u/dt²|²`; 0 when `le = 0`, whatever `w`.
+        let half_dt2 = 0.5 * dt * dt;
+        let c2 = half_dt2 * half_dt2;
+        let term = |d2: f64, w: f64| {
+            let r = c2 * d2 / (w * w).max(f64::MIN_POSITIVE);
+            if d2 == 0.0 {
+                0.0
+            } else {
+                r
+            }
+        };
+        let mut acc = Sweep {
+            sums: [0.0; 2],
+            count: 0,
+            maxima: [0.0; 4],
+        };
+        for p in 0..after.n_particles() {
+            let (q, h) = match pair.split {
+                None => (p, pair.history.map(|_| p)),
                 Some(ids) => {
                     let id = ids[p] as usize;
                     let q = self.slot_before.get(id).copied().unwrap_or(NONE);
@@ -235,13 +326,14 @@ impl<const D: usize> TemporalErrorNd<D> {
                     if q == NONE {
                         // Arrived in this trial: left out (module docs), and without rates
                         // for the next step.
-                        self.terms[p] = [-1.0; 4];
-                        out.ids[p] = LEFT_OUT;
+                        if let Some(out) = out.as_deref_mut() {
+                            out.ids[p] = LEFT_OUT;
+                        }
                         continue;
                     }
                     (
                         q as usize,
-                        history.filter(|_| h != NONE).map(|_| h as usize),
+                        pair.history.filter(|_| h != NONE).map(|_| h as usize),
                     )
                 }
             };
@@ -249,12 +341,13 @@ impl<const D: usize> TemporalErrorNd<D> {
             let (s0, s1) = (before.sigma[q], after.sigma[p]);
             let accel = (v1 - v0) * inv_dt;
             let stress_rate = (s1 - s0) * inv_dt;
-            out.accel[p] = accel;
-            out.stress_rate[p] = stress_rate;
-            let (d2v, d2s) = match (history, h) {
+            if let Some(out) = out.as_deref_mut() {
+                out.accel[p] = accel;
+                out.stress_rate[p] = stress_rate;
+            }
+            let (d2v, d2s) = match (pair.history, h) {
                 (Some(hist), Some(h)) => {
-                    let span = 0.5 * (dt + hist.dt);
-                    let inv_span = 1.0 / span;
+                    let inv_span = 2.0 / (dt + hist.dt);
                     (
                         (accel - hist.accel[h]) * inv_span,
                         (stress_rate - hist.stress_rate[h]) * inv_span,
@@ -266,63 +359,22 @@ impl<const D: usize> TemporalErrorNd<D> {
                     ((a1 - a0) * inv_dt, (r1 - r0) * inv_dt)
                 }
             };
-            // Squares throughout: one square root per field and particle, in the sums.
+            // Squares throughout: one square root per field and particle.
             let v_hat2 = v0.norm_squared().max(v1.norm_squared());
             let s_hat2 = s0.norm_squared().max(s1.norm_squared());
-            self.terms[p] = [d2v.norm_squared(), d2s.norm_squared(), v_hat2, s_hat2];
-            vm = vm.max(v_hat2);
-            sm = sm.max(s_hat2);
+            acc.sums[0] += term(d2v.norm_squared(), abs_v + rtol * v_hat2.sqrt());
+            acc.sums[1] += term(d2s.norm_squared(), abs_s + rtol * s_hat2.sqrt());
+            acc.count += 1;
+            let m = &mut acc.maxima;
+            m[0] = m[0].max(v_hat2);
+            m[1] = m[1].max(s_hat2);
             let z2 = before.density[q] * (before.lame_lambda[q] + 2.0 * before.lame_mu[q]);
             if z2.is_finite() && z2 > 0.0 {
-                vs2 = vs2.max(s_hat2 / z2);
-                sv2 = sv2.max(v_hat2 * z2);
+                m[2] = m[2].max(s_hat2 / z2);
+                m[3] = m[3].max(v_hat2 * z2);
             }
         }
-        let v_scale = vm.max(vs2).sqrt();
-        let sigma_scale = sm.max(sv2).sqrt();
-        let (prev_v, prev_s) = self
-            .history
-            .as_ref()
-            .map_or((0.0, 0.0), |h| (h.v_scale, h.sigma_scale));
-        let c = &self.config;
-        let half_dt2 = 0.5 * dt * dt;
-        let abs_v = c.atol_v + c.atol_rel * v_scale.max(prev_v);
-        let abs_s = c.atol_sigma + c.atol_rel * sigma_scale.max(prev_s);
-        // `(le/w)²` with `le² = (dt²/2)² |d²u/dt²|²`; 0 when `le = 0`, whatever `w`.
-        let c2 = half_dt2 * half_dt2;
-        let term = |d2: f64, w: f64| {
-            let r = c2 * d2 / (w * w).max(f64::MIN_POSITIVE);
-            if d2 == 0.0 {
-                0.0
-            } else {
-                r
-            }
-        };
-        // Four independent accumulators (the order of a sum of ~10⁵ terms only moves its
-        // last bits), so that the loop vectorises; left-out particles add nothing.
-        let (mut sum_v, mut sum_s, mut counted) = ([0.0_f64; 4], [0.0_f64; 4], [0.0_f64; 4]);
-        for chunk in self.terms.chunks(4) {
-            for (k, &[d2v, d2s, v_hat2, s_hat2]) in chunk.iter().enumerate() {
-                let kept = d2v >= 0.0;
-                let tv = term(d2v, abs_v + c.rtol * v_hat2.sqrt());
-                let ts = term(d2s, abs_s + c.rtol * s_hat2.sqrt());
-                sum_v[k] += if kept { tv } else { 0.0 };
-                sum_s[k] += if kept { ts } else { 0.0 };
-                counted[k] += if kept { 1.0 } else { 0.0 };
-            }
-        }
-        let fold = |l: [f64; 4]| (l[0] + l[1]) + (l[2] + l[3]);
-        let (sum_v, sum_s, count) = (fold(sum_v), fold(sum_s), fold(counted) as usize);
-        out.dt = dt;
-        out.v_scale = v_scale;
-        out.sigma_scale = sigma_scale;
-        let nf = count.max(1) as f64;
-        Ok(Estimate {
-            dsm: ((sum_v + sum_s) / (2.0 * nf)).sqrt(),
-            dsm_v: (sum_v / nf).sqrt(),
-            dsm_sigma: (sum_s / nf).sqrt(),
-            count,
-        })
+        acc
     }
 
     /// A history whose arrays the next estimate overwrites.
