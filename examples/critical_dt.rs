@@ -216,8 +216,14 @@ fn run(args: &Args) -> Result<Value, Box<dyn std::error::Error>> {
             "bound58": null,
             "amplitude": args.amplitude,
             "dt_empirical": null,
+            "dt_empirical_bracket": null,
+            "empirical_runs": 0,
             "skipped": format!("eq 58 and the empirical bisection above {RUN_LIMIT} particles"),
-            "ratios_to_h_over_c": {"eq56": dt_eq56 / dt_eq49},
+            "ratios_to_h_over_c": {
+                "eq56": dt_eq56 / dt_eq49,
+                "full_map": dt_full.map(|d| d / dt_eq49),
+                "empirical": null,
+            },
         }));
     }
 

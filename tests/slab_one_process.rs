@@ -1,8 +1,8 @@
 //! Capability: the grid-decomposed solver (`SolverNd::new_slab`) on one process — the
 //! path every process of a split run takes, with the split described in the view
 //! (`ViewNd::split`) and the stability tracker working through it — runs a scenario under
-//! the controller as the undivided solver does (same steps to 10⁻¹², same particle state
-//! to 10⁻¹⁰), and a rejected trial leaves its state bit for bit. Several processes are
+//! the controller as the undivided solver does (same steps to 10⁻¹², same temporal errors
+//! to 10⁻⁹, same particle state to 10⁻¹⁰), and a rejected trial leaves its state bit for bit. Several processes are
 //! tested under MPI in `tests/mpi_ranks.rs` (feature `mpi`).
 
 use mpm_dt::controller::{Controller, Outcome};
@@ -21,12 +21,13 @@ fn scenario(file: &str) -> ScenarioNd {
     .expect("scenario")
 }
 
-/// The accepted steps of a controlled run to `t_end`, and the final state.
+/// The accepted steps of a controlled run to `t_end` with their temporal errors `dsm`, and
+/// the final state.
 fn run<const D: usize>(
     mut s: SolverNd<D>,
     scenario: &ScenarioNd,
     t_end: f64,
-) -> (Vec<f64>, Vec<f64>)
+) -> (Vec<(f64, f64)>, Vec<f64>)
 where
     Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
 {
@@ -37,7 +38,7 @@ where
     controller
         .run_until(&mut s, t_end, &mut |d| {
             if d.outcome == Outcome::Accepted {
-                dts.push(d.dt);
+                dts.push((d.dt, d.dsm.expect("the temporal error judged the step")));
             }
         })
         .expect("the run reaches t_end");
@@ -72,19 +73,27 @@ where
     let (dt_b, x_b) = run(slab, &sc, t_end);
     assert_eq!(dt_a.len(), dt_b.len(), "{file}: steps");
     let last = dt_a.len() - 1;
-    for (k, (a, b)) in dt_a.iter().zip(&dt_b).enumerate() {
+    for (k, ((a, ea), (b, eb))) in dt_a.iter().zip(&dt_b).enumerate() {
         let scale = if k == last { t_end } else { *a };
         assert!(
             (a - b).abs() <= 1e-12 * scale,
             "{file}: step {k}: {a} vs {b}"
+        );
+        // The temporal error through the id pairing (the slab's particles are matched by
+        // run-wide id where they moved) is the undivided run's, up to summation order
+        // (and to round-off where it is round-off: a rigid flight's dsm is ~10⁻¹⁵).
+        assert!(
+            (ea - eb).abs() <= 1e-9 * ea.abs() + 1e-12,
+            "{file}: step {k}: dsm {ea} vs {eb}"
         );
     }
     let worst = x_a
         .iter()
         .zip(&x_b)
         .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+    let dsm_max = dt_a.iter().fold(0.0f64, |m, (_, e)| m.max(*e));
     eprintln!(
-        "{file}: {} steps, largest state difference {worst:.2e}",
+        "{file}: {} steps, largest dsm {dsm_max:.2e}, largest state difference {worst:.2e}",
         dt_a.len()
     );
     assert!(worst <= 1e-10, "{file}: {worst}");

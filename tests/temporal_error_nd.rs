@@ -1,7 +1,8 @@
 //! Capability: the temporal local error of eqs 20–30 in 2D/3D (`TemporalErrorNd`) — its
 //! `dsm` is second order in the step on a smooth plane wave, zero on a rigid translation,
-//! binds the controller's step when its tolerance is tight, and a setting it cannot honour
-//! (the 1D-only balancing) is a typed error, not ignored.
+//! binds the controller's step when its tolerance is tight, rejects a non-finite trial, and
+//! a setting it cannot honour (the 1D-only balancing, a restored state whose arrays do not
+//! belong together) is a typed error, not ignored.
 
 use mpm_dt::controller::{bound, metric, Controller, ControllerConfig, Outcome};
 use mpm_dt::limit::StepLimit;
@@ -129,4 +130,53 @@ fn balancing_is_reported_as_an_error_in_2d() {
         .judge(&s.view(), &s.trial_view().expect("trial view"), 0.01)
         .expect_err("balance is 1D only");
     assert!(err.to_string().contains("balance"), "{err}");
+}
+
+#[test]
+fn a_non_finite_trial_is_rejected() {
+    let (mut s, _) = plane_wave();
+    let mut limit = TemporalErrorNd::<2>::new(Default::default());
+    // On the first step (the nodal-rate form, which does not read the trial's velocity)
+    // and on a later one (the history form).
+    for step in 0..2 {
+        s.try_step(0.01).expect("trial");
+        let (before, after) = (s.view(), s.trial_view().expect("trial view"));
+        let mut v = after.v.to_vec();
+        v[7][1] = f64::NAN;
+        let poisoned = mpm_dt::ViewNd { v: &v, ..after };
+        let j = limit.judge(&before, &poisoned, 0.01).expect("judged");
+        assert!(
+            matches!(j.verdict, mpm_dt::limit::Verdict::Reject { .. }),
+            "step {step}: {:?}",
+            j.metrics
+        );
+        limit.rejected(0.01, mpm_dt::limit::RejectCause::NonFinite);
+        // The clean trial is accepted and becomes the history.
+        let j = limit.judge(&before, &after, 0.01).expect("judged");
+        assert!(matches!(j.verdict, mpm_dt::limit::Verdict::Accept));
+        limit.accepted(&before, &after, 0.01);
+        s.accept().expect("accept");
+    }
+}
+
+#[test]
+fn a_restored_state_must_hold_together() {
+    let (mut s, _) = plane_wave();
+    let mut limit = TemporalErrorNd::<2>::new(Default::default());
+    s.try_step(0.01).expect("trial");
+    let (before, after) = (s.view(), s.trial_view().expect("trial view"));
+    limit.judge(&before, &after, 0.01).expect("judged");
+    limit.accepted(&before, &after, 0.01);
+    let saved = limit.save_state().expect("a history");
+    let mut fresh = TemporalErrorNd::<2>::new(Default::default());
+    fresh.restore_state(&saved).expect("its own state restores");
+    let mut cut = saved.clone();
+    cut["stress_rate"]
+        .as_array_mut()
+        .expect("stress rates")
+        .truncate(3);
+    let err = fresh
+        .restore_state(&cut)
+        .expect_err("rates of different lengths");
+    assert!(err.to_string().contains("restore"), "{err}");
 }

@@ -66,9 +66,10 @@ pub(super) fn apply_with<const D: usize>(
 ) {
     let nn = view.n_nodes();
     debug_assert!(u.len() == nn * D && y.len() == nn * D && inv_sqrt_m.len() == nn);
+    debug_assert_eq!(moduli.len(), view.n_particles());
     y.fill(0.0);
     let w = &view.weights;
-    for (p, &(vol_lambda, vol_mu)) in moduli.iter().enumerate().take(view.n_particles()) {
+    for (p, &(vol_lambda, vol_mu)) in moduli.iter().enumerate() {
         let nodes = w.nodes_of(p);
         let grads = w.grad_of(p);
         let mut l = Tensor::<D>::zeros();
