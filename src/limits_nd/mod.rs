@@ -42,6 +42,7 @@ mod sound_speed;
 mod stability;
 pub mod stiffness;
 mod temporal_error;
+mod temporal_sweep;
 mod transfer;
 
 pub use growth::{GrowthNd, GROWTH};

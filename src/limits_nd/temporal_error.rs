@@ -57,69 +57,15 @@
 //! **Not carried over:** the balancing of eq 44's spatial error (`balance`), whose
 //! estimators are 1D; a configured `balance` is reported as an error, not ignored.
 
+use super::temporal_sweep::{sweep, History, Pairing, LEFT_OUT, NONE};
 use crate::controller::{metric, TemporalErrorConfig, TEMPORAL_ERROR};
 use crate::dimension::{Dim, Dimension};
 use crate::limit::{Judgement, LimitError, Metrics, Proposal, RejectCause, StepLimit, Verdict};
 use crate::nd::{Tensor, Vector, ViewNd};
-use serde::{Deserialize, Serialize};
-
-/// No partner (a particle absent from the other state).
-const NONE: u32 = u32::MAX;
 
 /// Relative growth of a field scale over the previous step's below which the weights keep
 /// the previous scale (one pass over the particles instead of two).
 const SCALE_SLACK: f64 = 0.1;
-
-/// The history id of a particle left out of its trial's estimate (it has no rates).
-const LEFT_OUT: u64 = u64::MAX;
-
-/// Rates of the last accepted step, kept for the next estimate.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-struct History<const D: usize> {
-    dt: f64,
-    accel: Vec<Vector<D>>,
-    stress_rate: Vec<Tensor<D>>,
-    /// Run-wide particle ids, on a grid-decomposed run (else empty: the index is the id).
-    ids: Vec<u64>,
-    v_scale: f64,
-    sigma_scale: f64,
-}
-
-/// How trial particles find their committed state and their history.
-struct Pairing<'h, const D: usize> {
-    /// On a grid-decomposed run where particles changed process in the trial, the trial's
-    /// run-wide ids (partners through the id table); `None` when trial particle `p` is
-    /// committed particle `p`.
-    moved: Option<&'h [u64]>,
-    /// The committed state's run-wide ids on a grid-decomposed run.
-    before_ids: Option<&'h [u64]>,
-    /// The history, when it describes these particles: its entries follow the committed
-    /// order (it was the trial that became the committed state).
-    history: Option<&'h History<D>>,
-}
-
-impl<const D: usize> History<D> {
-    /// The arrays belong together: one rate pair per particle, ids for all or none, a
-    /// positive finite step (what a restored state must satisfy before it is indexed).
-    fn consistent(&self) -> bool {
-        self.accel.len() == self.stress_rate.len()
-            && (self.ids.is_empty() || self.ids.len() == self.accel.len())
-            && self.dt.is_finite()
-            && self.dt > 0.0
-    }
-}
-
-/// What one sweep over the particles gives.
-struct Sweep {
-    /// `Σ (le_v/w_v)²`, `Σ (le_σ/w_σ)²`.
-    sums: [f64; 2],
-    /// Particles in the sums (`N`).
-    count: usize,
-    /// `max v̂²`, `max σ̂²`, `max σ̂²/z²`, `max v̂² z²`.
-    maxima: [f64; 4],
-    /// Every rate formed was finite.
-    finite: bool,
-}
 
 /// What one estimate gives.
 struct Estimate {
@@ -163,23 +109,6 @@ impl<const D: usize> TemporalErrorNd<D> {
             limit: TEMPORAL_ERROR.to_string(),
             message,
         }
-    }
-
-    /// The rates `(a_p, σ̇_p)` of particle `p` at the start of a step from `view`'s nodal
-    /// fields (eqs 21, 16, 24).
-    fn nodal_rates(view: &ViewNd<'_, D>, p: usize) -> (Vector<D>, Tensor<D>) {
-        let w = view.weights;
-        let mut a = Vector::<D>::zeros();
-        let mut l = Tensor::<D>::zeros();
-        for ((&i, &s), g) in w.nodes_of(p).iter().zip(w.s_of(p)).zip(w.grad_of(p)) {
-            let i = i as usize;
-            a += view.node_acceleration[i] * s;
-            l += view.node_velocity[i] * g.transpose();
-        }
-        let e = (l + l.transpose()) * 0.5;
-        let rate = Tensor::<D>::identity() * (view.lame_lambda[p] * e.trace())
-            + e * (2.0 * view.lame_mu[p]);
-        (a, rate)
     }
 
     /// Checks the slices the estimate reads.
@@ -292,10 +221,19 @@ impl<const D: usize> TemporalErrorNd<D> {
             .map_or((0.0, 0.0), |h| (h.v_scale, h.sigma_scale));
         let pair = Pairing {
             moved,
+            slot_before: &self.slot_before,
             before_ids,
             history,
         };
-        let first = self.sweep(before, after, dt, &pair, abs_of(prev_v, prev_s), Some(out));
+        let first = sweep(
+            before,
+            after,
+            dt,
+            &pair,
+            c.rtol,
+            abs_of(prev_v, prev_s),
+            Some(out),
+        );
         let [vm, sm, vs2, sv2] = first.maxima;
         let finite = first.finite;
         let v_scale = vm.max(vs2).sqrt();
@@ -305,7 +243,7 @@ impl<const D: usize> TemporalErrorNd<D> {
             first
         } else {
             let abs = abs_of(v_scale.max(prev_v), sigma_scale.max(prev_s));
-            self.sweep(before, after, dt, &pair, abs, None)
+            sweep(before, after, dt, &pair, c.rtol, abs, None)
         };
         out.dt = dt;
         out.v_scale = v_scale;
@@ -325,101 +263,6 @@ impl<const D: usize> TemporalErrorNd<D> {
             dsm_sigma: (sum_s / nf).sqrt(),
             count: sweep.count,
         })
-    }
-
-    /// One pass over the trial's particles: their rates (written into `out` when given),
-    /// the maxima behind the field scales, and the sums of `(le/w)²` with the absolute
-    /// parts `abs = (atol_v + atol_rel ‖v‖_∞, atol_σ + atol_rel ‖σ‖_∞)` of the weights.
-    fn sweep(
-        &self,
-        before: &ViewNd<'_, D>,
-        after: &ViewNd<'_, D>,
-        dt: f64,
-        pair: &Pairing<'_, D>,
-        (abs_v, abs_s): (f64, f64),
-        mut out: Option<&mut History<D>>,
-    ) -> Sweep {
-        let inv_dt = 1.0 / dt;
-        let rtol = self.config.rtol;
-        // `(le/w)²` with `le² = (dt²/2)² |d²u/dt²|²`; 0 when `le = 0`, whatever `w`.
-        let half_dt2 = 0.5 * dt * dt;
-        let c2 = half_dt2 * half_dt2;
-        let term = |d2: f64, w: f64| {
-            let r = c2 * d2 / (w * w).max(f64::MIN_POSITIVE);
-            if d2 == 0.0 {
-                0.0
-            } else {
-                r
-            }
-        };
-        let mut acc = Sweep {
-            sums: [0.0; 2],
-            count: 0,
-            maxima: [0.0; 4],
-            finite: true,
-        };
-        for p in 0..after.n_particles() {
-            let q = match pair.moved {
-                None => p,
-                Some(ids) => match self.slot_before.get(ids[p] as usize) {
-                    Some(&q) if q != NONE => q as usize,
-                    _ => {
-                        // Arrived in this trial: left out (module docs), and without rates
-                        // for the next step.
-                        if let Some(out) = out.as_deref_mut() {
-                            out.ids[p] = LEFT_OUT;
-                        }
-                        continue;
-                    }
-                },
-            };
-            // The history entry of committed particle `q`, unless it was left out.
-            let h = pair
-                .history
-                .filter(|hist| match pair.before_ids {
-                    None => true,
-                    Some(ids) => hist.ids[q] == ids[q],
-                })
-                .map(|_| q);
-            let (v0, v1) = (before.v[q], after.v[p]);
-            let (s0, s1) = (before.sigma[q], after.sigma[p]);
-            let accel = (v1 - v0) * inv_dt;
-            let stress_rate = (s1 - s0) * inv_dt;
-            acc.finite &= (accel.norm_squared() + stress_rate.norm_squared()).is_finite();
-            if let Some(out) = out.as_deref_mut() {
-                out.accel[p] = accel;
-                out.stress_rate[p] = stress_rate;
-            }
-            let (d2v, d2s) = match (pair.history, h) {
-                (Some(hist), Some(h)) => {
-                    let inv_span = 2.0 / (dt + hist.dt);
-                    (
-                        (accel - hist.accel[h]) * inv_span,
-                        (stress_rate - hist.stress_rate[h]) * inv_span,
-                    )
-                }
-                _ => {
-                    let (a0, r0) = Self::nodal_rates(before, q);
-                    let (a1, r1) = Self::nodal_rates(after, p);
-                    ((a1 - a0) * inv_dt, (r1 - r0) * inv_dt)
-                }
-            };
-            // Squares throughout: one square root per field and particle.
-            let v_hat2 = v0.norm_squared().max(v1.norm_squared());
-            let s_hat2 = s0.norm_squared().max(s1.norm_squared());
-            acc.sums[0] += term(d2v.norm_squared(), abs_v + rtol * v_hat2.sqrt());
-            acc.sums[1] += term(d2s.norm_squared(), abs_s + rtol * s_hat2.sqrt());
-            acc.count += 1;
-            let m = &mut acc.maxima;
-            m[0] = m[0].max(v_hat2);
-            m[1] = m[1].max(s_hat2);
-            let z2 = before.density[q] * (before.lame_lambda[q] + 2.0 * before.lame_mu[q]);
-            if z2.is_finite() && z2 > 0.0 {
-                m[2] = m[2].max(s_hat2 / z2);
-                m[3] = m[3].max(v_hat2 * z2);
-            }
-        }
-        acc
     }
 
     /// A history whose arrays the next estimate overwrites.

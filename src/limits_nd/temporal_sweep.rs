@@ -1,0 +1,181 @@
+//! The per-particle pass of [`super::TemporalErrorNd`] (module docs there): the history it
+//! keeps, how trial particles find their committed state and history, and the sweep that
+//! forms the rates, the field-scale maxima and the sums of the scaled errors.
+
+use crate::nd::{Tensor, Vector, ViewNd};
+use serde::{Deserialize, Serialize};
+
+/// No partner (a particle absent from the other state).
+pub(super) const NONE: u32 = u32::MAX;
+
+/// The history id of a particle left out of its trial's estimate (it has no rates).
+pub(super) const LEFT_OUT: u64 = u64::MAX;
+
+/// Rates of the last accepted step, kept for the next estimate.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub(super) struct History<const D: usize> {
+    /// The step the rates were formed over.
+    pub dt: f64,
+    /// `(v^{n+1} − v^n)/dt` per particle.
+    pub accel: Vec<Vector<D>>,
+    /// `(σ^{n+1} − σ^n)/dt` per particle.
+    pub stress_rate: Vec<Tensor<D>>,
+    /// Run-wide particle ids, on a grid-decomposed run (else empty: the index is the id).
+    pub ids: Vec<u64>,
+    /// `‖v‖_∞` of the step (module docs of [`super::TemporalErrorNd`]).
+    pub v_scale: f64,
+    /// `‖σ‖_∞` of the step.
+    pub sigma_scale: f64,
+}
+
+/// How trial particles find their committed state and their history.
+pub(super) struct Pairing<'h, const D: usize> {
+    /// On a grid-decomposed run where particles changed process in the trial, the trial's
+    /// run-wide ids (partners through the id table); `None` when trial particle `p` is
+    /// committed particle `p`.
+    pub moved: Option<&'h [u64]>,
+    /// Run-wide id → committed index, filled when particles moved ([`NONE`]: absent).
+    pub slot_before: &'h [u32],
+    /// The committed state's run-wide ids on a grid-decomposed run.
+    pub before_ids: Option<&'h [u64]>,
+    /// The history, when it describes these particles: its entries follow the committed
+    /// order (it was the trial that became the committed state).
+    pub history: Option<&'h History<D>>,
+}
+
+impl<const D: usize> History<D> {
+    /// The arrays belong together: one rate pair per particle, ids for all or none, a
+    /// positive finite step (what a restored state must satisfy before it is indexed).
+    pub fn consistent(&self) -> bool {
+        self.accel.len() == self.stress_rate.len()
+            && (self.ids.is_empty() || self.ids.len() == self.accel.len())
+            && self.dt.is_finite()
+            && self.dt > 0.0
+    }
+}
+
+/// What one sweep over the particles gives.
+pub(super) struct Sweep {
+    /// `Σ (le_v/w_v)²`, `Σ (le_σ/w_σ)²`.
+    pub sums: [f64; 2],
+    /// Particles in the sums (`N`).
+    pub count: usize,
+    /// `max v̂²`, `max σ̂²`, `max σ̂²/z²`, `max v̂² z²`.
+    pub maxima: [f64; 4],
+    /// Every rate formed was finite.
+    pub finite: bool,
+}
+
+/// The rates `(a_p, σ̇_p)` of particle `p` at the start of a step from `view`'s nodal
+/// fields (eqs 21, 16, 24).
+pub(super) fn nodal_rates<const D: usize>(
+    view: &ViewNd<'_, D>,
+    p: usize,
+) -> (Vector<D>, Tensor<D>) {
+    let w = view.weights;
+    let mut a = Vector::<D>::zeros();
+    let mut l = Tensor::<D>::zeros();
+    for ((&i, &s), g) in w.nodes_of(p).iter().zip(w.s_of(p)).zip(w.grad_of(p)) {
+        let i = i as usize;
+        a += view.node_acceleration[i] * s;
+        l += view.node_velocity[i] * g.transpose();
+    }
+    let e = (l + l.transpose()) * 0.5;
+    let rate =
+        Tensor::<D>::identity() * (view.lame_lambda[p] * e.trace()) + e * (2.0 * view.lame_mu[p]);
+    (a, rate)
+}
+
+/// One pass over the trial's particles: their rates (written into `out` when given),
+/// the maxima behind the field scales, and the sums of `(le/w)²` with the absolute
+/// parts `abs = (atol_v + atol_rel ‖v‖_∞, atol_σ + atol_rel ‖σ‖_∞)` of the weights.
+pub(super) fn sweep<const D: usize>(
+    before: &ViewNd<'_, D>,
+    after: &ViewNd<'_, D>,
+    dt: f64,
+    pair: &Pairing<'_, D>,
+    rtol: f64,
+    (abs_v, abs_s): (f64, f64),
+    mut out: Option<&mut History<D>>,
+) -> Sweep {
+    let inv_dt = 1.0 / dt;
+    // `(le/w)²` with `le² = (dt²/2)² |d²u/dt²|²`; 0 when `le = 0`, whatever `w`.
+    let half_dt2 = 0.5 * dt * dt;
+    let c2 = half_dt2 * half_dt2;
+    let term = |d2: f64, w: f64| {
+        let r = c2 * d2 / (w * w).max(f64::MIN_POSITIVE);
+        if d2 == 0.0 {
+            0.0
+        } else {
+            r
+        }
+    };
+    let mut acc = Sweep {
+        sums: [0.0; 2],
+        count: 0,
+        maxima: [0.0; 4],
+        finite: true,
+    };
+    for p in 0..after.n_particles() {
+        let q = match pair.moved {
+            None => p,
+            Some(ids) => match pair.slot_before.get(ids[p] as usize) {
+                Some(&q) if q != NONE => q as usize,
+                _ => {
+                    // Arrived in this trial: left out (module docs), and without rates
+                    // for the next step.
+                    if let Some(out) = out.as_deref_mut() {
+                        out.ids[p] = LEFT_OUT;
+                    }
+                    continue;
+                }
+            },
+        };
+        // The history entry of committed particle `q`, unless it was left out.
+        let h = pair
+            .history
+            .filter(|hist| match pair.before_ids {
+                None => true,
+                Some(ids) => hist.ids[q] == ids[q],
+            })
+            .map(|_| q);
+        let (v0, v1) = (before.v[q], after.v[p]);
+        let (s0, s1) = (before.sigma[q], after.sigma[p]);
+        let accel = (v1 - v0) * inv_dt;
+        let stress_rate = (s1 - s0) * inv_dt;
+        acc.finite &= (accel.norm_squared() + stress_rate.norm_squared()).is_finite();
+        if let Some(out) = out.as_deref_mut() {
+            out.accel[p] = accel;
+            out.stress_rate[p] = stress_rate;
+        }
+        let (d2v, d2s) = match (pair.history, h) {
+            (Some(hist), Some(h)) => {
+                let inv_span = 2.0 / (dt + hist.dt);
+                (
+                    (accel - hist.accel[h]) * inv_span,
+                    (stress_rate - hist.stress_rate[h]) * inv_span,
+                )
+            }
+            _ => {
+                let (a0, r0) = nodal_rates(before, q);
+                let (a1, r1) = nodal_rates(after, p);
+                ((a1 - a0) * inv_dt, (r1 - r0) * inv_dt)
+            }
+        };
+        // Squares throughout: one square root per field and particle.
+        let v_hat2 = v0.norm_squared().max(v1.norm_squared());
+        let s_hat2 = s0.norm_squared().max(s1.norm_squared());
+        acc.sums[0] += term(d2v.norm_squared(), abs_v + rtol * v_hat2.sqrt());
+        acc.sums[1] += term(d2s.norm_squared(), abs_s + rtol * s_hat2.sqrt());
+        acc.count += 1;
+        let m = &mut acc.maxima;
+        m[0] = m[0].max(v_hat2);
+        m[1] = m[1].max(s_hat2);
+        let z2 = before.density[q] * (before.lame_lambda[q] + 2.0 * before.lame_mu[q]);
+        if z2.is_finite() && z2 > 0.0 {
+            m[2] = m[2].max(s_hat2 / z2);
+            m[3] = m[3].max(v_hat2 * z2);
+        }
+    }
+    acc
+}
