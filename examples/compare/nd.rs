@@ -139,9 +139,13 @@ where
         .collect();
     let ours = controlled(s.clone(), scenario, wave.as_ref())?;
     let dt_mean = (ours.steps > 0).then(|| ours.t_final / ours.steps as f64);
+    // Against a rule that blew up there is no time to the end to compare with: `null`.
     let wall_ratio: Vec<Value> = runs
         .iter()
-        .map(|r| json!({"against": r.policy, "wall_ratio": ours.wall_s / r.wall_s}))
+        .map(|r| {
+            let ratio = r.blew_up.is_none().then(|| ours.wall_s / r.wall_s);
+            json!({"against": r.policy, "wall_ratio": ratio})
+        })
         .collect();
     let doc = json!({
         "dim": D,
@@ -214,10 +218,12 @@ pub fn compare(path: &str, text: &str, alphas: &[f64], as_json: bool) -> Result<
         );
     }
     for w in doc["wall_ratio"].as_array().into_iter().flatten() {
+        let ratio = w["wall_ratio"]
+            .as_f64()
+            .map_or("- (the rule blew up)".into(), |r| format!("{r:.3}"));
         println!(
-            "  wall_ratio mpm-dt / {} = {:.3}",
+            "  wall_ratio mpm-dt / {} = {ratio}",
             w["against"].as_str().unwrap_or("?"),
-            w["wall_ratio"].as_f64().unwrap_or(f64::NAN)
         );
     }
     Ok(ok)
