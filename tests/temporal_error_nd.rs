@@ -180,3 +180,15 @@ fn a_restored_state_must_hold_together() {
         .expect_err("rates of different lengths");
     assert!(err.to_string().contains("restore"), "{err}");
 }
+
+#[test]
+fn invalid_tolerances_end_the_run_before_a_trial() {
+    let (s, _) = plane_wave();
+    let config = mpm_dt::controller::TemporalErrorConfig {
+        rtol: -1.0,
+        ..Default::default()
+    };
+    let mut limit = TemporalErrorNd::<2>::new(config);
+    let err = limit.propose(&s.view()).expect_err("a negative rtol");
+    assert!(err.to_string().contains("rtol"), "{err}");
+}

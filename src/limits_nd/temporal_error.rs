@@ -152,8 +152,12 @@ impl<const D: usize> TemporalErrorNd<D> {
         Ok(())
     }
 
-    /// The 1D-only balancing is refused, not ignored.
+    /// The 1D-only balancing is refused, not ignored; invalid tolerances (as
+    /// [`TemporalErrorConfig::validate`] finds them) likewise.
     fn supported(&self) -> Result<(), LimitError> {
+        self.config
+            .validate()
+            .map_err(|e| Self::other(e.to_string()))?;
         match self.config.balance {
             Some(_) => Err(Self::other(
                 "temporal.balance (eq 44's spatial error) is 1D only".to_string(),
