@@ -100,17 +100,20 @@ where
     while s.time() < t_end * (1.0 - 1e-14) {
         // Timed: the rule and the step, as in `controlled`.
         let start = Instant::now();
-        let dt = SoundSpeedNd::unit_step(&s.view()).map(|u| (alpha * u).min(t_end - s.time()));
-        let step = dt.map(|dt| (dt, s.try_step(dt).and_then(|_| s.accept())));
+        let step = SoundSpeedNd::unit_step(&s.view())
+            .map_err(|e| e.to_string())
+            .and_then(|u| {
+                let dt = (alpha * u).min(t_end - s.time());
+                s.try_step(dt)
+                    .and_then(|_| s.accept())
+                    .map(|_| dt)
+                    .map_err(|e| e.to_string())
+            });
         stepping += start.elapsed();
         let dt = match step {
-            Ok((dt, Ok(()))) => dt,
-            Ok((_, Err(e))) => {
-                h.error = Some(e.to_string());
-                break;
-            }
+            Ok(dt) => dt,
             Err(e) => {
-                h.error = Some(e.to_string());
+                h.error = Some(e);
                 break;
             }
         };

@@ -168,8 +168,13 @@ fn a_trial_failing_inside_the_solver_on_one_rank_rejects_everywhere() {
     }
     // A rank whose trials keep failing inside the solver ends every rank, none hangs.
     let (code, ranks) = run(4, &["--throw-rank", "1", "--fail-step", "5"]);
+    every_rank_gave_up_after_5_steps(code, &ranks);
+}
+
+/// Every rank ended the run with exit status 1 after 5 steps, on "consecutive rejections".
+fn every_rank_gave_up_after_5_steps(code: Option<i32>, ranks: &[Value]) {
     assert_eq!(code, Some(1));
-    for r in &ranks {
+    for r in ranks {
         let error = r["error"].as_str().expect("an error on every rank");
         assert!(error.contains("consecutive rejections"), "{r}");
         assert_eq!(r["steps"].as_u64(), Some(5));
@@ -179,12 +184,7 @@ fn a_trial_failing_inside_the_solver_on_one_rank_rejects_everywhere() {
 #[test]
 fn a_failing_rank_ends_every_rank_with_an_error() {
     let (code, ranks) = run(4, &["--fail-rank", "1", "--fail-step", "5"]);
-    assert_eq!(code, Some(1));
-    for r in &ranks {
-        let error = r["error"].as_str().expect("an error on every rank");
-        assert!(error.contains("consecutive rejections"), "{r}");
-        assert_eq!(r["steps"].as_u64(), Some(5));
-    }
+    every_rank_gave_up_after_5_steps(code, &ranks);
     let (code, ranks) = run(4, &["--abort-rank", "2", "--fail-step", "7"]);
     assert_eq!(code, Some(1));
     for r in &ranks {

@@ -35,7 +35,8 @@ pub fn apply<const D: usize>(view: &ViewNd<'_, D>, u: &[f64], y: &mut [f64]) {
     apply_scaled(view, &inverse_sqrt_mass(view), u, y);
 }
 
-/// [`apply`] with `M^{-1/2}` given ([`inverse_sqrt_mass`]).
+/// [`apply`] with `M^{-1/2}` given ([`inverse_sqrt_mass`]). (The crate's repeated
+/// products form the particles' moduli once and reuse them.)
 pub fn apply_scaled<const D: usize>(
     view: &ViewNd<'_, D>,
     inv_sqrt_m: &[f64],
