@@ -69,8 +69,12 @@
 //! mpm-dt blew up there.
 
 mod common;
+#[path = "compare/matched.rs"]
+mod matched;
 #[path = "compare/nd.rs"]
 mod nd;
+#[path = "compare/report.rs"]
+mod report;
 
 use mpm_dt::controller::Controller;
 use mpm_dt::mpm::ReferenceStepper;
@@ -80,6 +84,9 @@ use mpm_dt::{closing_half_step, Stepper};
 use serde::Serialize;
 use std::process::ExitCode;
 use std::time::Instant;
+
+use matched::run_matched;
+use report::{print_table, ratios};
 
 /// Energy growth factor that counts as a blow-up (the empirical protocol's default).
 const ENERGY_GROWTH: f64 = 10.0;
@@ -287,127 +294,6 @@ fn run_fixed(
     ))
 }
 
-/// The fixed rule with mpm-dt's step count (module docs): its row, and the synchronised
-/// errors of every sampled multiplier that took exactly that many steps.
-struct Matched {
-    result: PolicyResult,
-    /// `(α, velocity_error_linf)` of the runs with exactly mpm-dt's step count.
-    same_count: Vec<(f64, Option<f64>)>,
-}
-
-/// Offsets (in units of `1/N`, `N` mpm-dt's step count) of the multipliers sampled around
-/// one that hit the count, `k/8` for `k = ±1 … ±12`: the multipliers with `N` steps span
-/// about `α/N`, and the first hit may lie at either end.
-const SPREAD: [f64; 24] = {
-    let mut s = [0.0; 24];
-    let mut k = 0;
-    while k < 12 {
-        s[2 * k] = -((k + 1) as f64) / 8.0;
-        s[2 * k + 1] = (k + 1) as f64 / 8.0;
-        k += 1;
-    }
-    s
-};
-
-/// The fixed multiplier taking as many steps as `ours` (module docs): `Ok(None)` when `ours`
-/// blew up or took no step. The search runs at most 16 multipliers: the first guess from
-/// mpm-dt's mean step and the sound-speed step at `t = 0`, proportional corrections
-/// (steps ∝ 1/α) until the target is bracketed, then bisection. A run that blows up bounds α
-/// from above like one with too few steps. The row is the closest stable run from above
-/// (at least mpm-dt's step count); when one hits the count `N` exactly, the multipliers
-/// `α (1 + x/N)`, `x` in [`SPREAD`], are run too and the row is the most accurate of those
-/// with the same count. With no stable run at or above the count, the row is the first run that
-/// blew up.
-fn run_matched(
-    scenario: &Scenario,
-    reference: &Reference<'_>,
-    ours: &PolicyResult,
-) -> Result<Option<Matched>, String> {
-    let (target, Some(dt_mean)) = (ours.steps, ours.dt_mean) else {
-        return Ok(None);
-    };
-    if ours.blew_up || target == 0 {
-        return Ok(None);
-    }
-    let start = scenario.build().map_err(|e| e.to_string())?;
-    let unit = SoundSpeed::new(SoundSpeedConfig { alpha: 1.0 })
-        .and_then(|l| l.dt(&start.view()))
-        .map_err(|e| e.to_string())?;
-    let mut alpha = dt_mean / unit;
-    // Steps fall as α grows: `more` took more steps than the target (stable), `fewer` took
-    // fewer or blew up.
-    let (mut more, mut fewer): (Option<f64>, Option<f64>) = (None, None);
-    let mut best: Option<(f64, PolicyResult)> = None;
-    let mut first_blowup: Option<(f64, PolicyResult)> = None;
-    let mut hit = None;
-    for _ in 0..16 {
-        if !(alpha.is_finite() && alpha > 0.0) {
-            return Err(format!("no valid multiplier to try (α = {alpha})"));
-        }
-        let r = run_fixed(scenario, reference, alpha)?;
-        let (steps, blew_up) = (r.steps, r.blew_up);
-        if blew_up {
-            fewer = Some(fewer.map_or(alpha, |f: f64| f.min(alpha)));
-            if first_blowup.is_none() {
-                first_blowup = Some((alpha, r));
-            }
-        } else {
-            if steps == target {
-                hit = Some(alpha);
-            }
-            // Keep the run closest to the target from above (at least mpm-dt's count).
-            if steps >= target && best.as_ref().is_none_or(|(_, b)| steps < b.steps) {
-                best = Some((alpha, r));
-            }
-            if hit.is_some() {
-                break;
-            }
-            if steps > target {
-                more = Some(more.map_or(alpha, |m: f64| m.max(alpha)));
-            } else {
-                fewer = Some(fewer.map_or(alpha, |f: f64| f.min(alpha)));
-            }
-        }
-        alpha = match (more, fewer) {
-            (Some(m), Some(f)) => {
-                let mid = 0.5 * (m + f);
-                if !(m < mid && mid < f) {
-                    break; // the bracket has collapsed: no multiplier hits the count
-                }
-                mid
-            }
-            // A blow-up has no step count to correct by.
-            _ if blew_up => 0.5 * alpha,
-            _ => alpha * steps as f64 / target as f64,
-        };
-    }
-    let mut same_count = Vec::new();
-    if let Some(a0) = hit {
-        if let Some((_, r)) = best.as_ref() {
-            same_count.push((a0, r.velocity_error_linf));
-        }
-        for k in SPREAD {
-            let a = a0 * (1.0 + k / target as f64);
-            let r = run_fixed(scenario, reference, a)?;
-            if r.blew_up || r.steps != target {
-                continue;
-            }
-            same_count.push((a, r.velocity_error_linf));
-            let better = match (&best, r.velocity_error_linf) {
-                (Some((_, b)), Some(e)) => b.velocity_error_linf.is_none_or(|be| e < be),
-                _ => false,
-            };
-            if better {
-                best = Some((a, r));
-            }
-        }
-    }
-    Ok(best.or(first_blowup).map(|(alpha, mut result)| {
-        result.policy = format!("matched alpha={alpha:.4}");
-        Matched { result, same_count }
-    }))
-}
-
 /// mpm-dt's controller.
 fn run_controller(
     scenario: &Scenario,
@@ -458,152 +344,6 @@ fn run_controller(
         failure,
         wall,
     ))
-}
-
-/// Step ratio `steps(policy)/steps(mpm-dt)` and error ratio against one fixed rule.
-#[derive(Debug, Serialize)]
-struct Ratio {
-    against: String,
-    /// Whether the fixed policy stayed stable.
-    stable: bool,
-    steps_ratio: Option<f64>,
-    /// Whether the policy took exactly mpm-dt's number of steps.
-    same_step_count: bool,
-    /// mpm-dt's final velocity error divided by the policy's (≤ 1 is "equal or better"),
-    /// synchronised velocities.
-    error_ratio: Option<f64>,
-    /// The same ratio for the raw particle velocities.
-    error_ratio_raw: Option<f64>,
-    /// mpm-dt's wall time to the end divided by the policy's (< 1: mpm-dt ends sooner).
-    wall_ratio: Option<f64>,
-}
-
-/// `a/b` when both exist and `b > 0`.
-fn ratio(a: Option<f64>, b: Option<f64>) -> Option<f64> {
-    match (a, b) {
-        (Some(a), Some(b)) if b > 0.0 => Some(a / b),
-        _ => None,
-    }
-}
-
-fn ratios(results: &[PolicyResult]) -> Vec<Ratio> {
-    let Some(ours) = results.iter().find(|r| r.policy == "mpm-dt") else {
-        return Vec::new();
-    };
-    // Against 0.3, 0.4 and 0.5, and against the fixed rule with mpm-dt's step count.
-    let fixed = [0.3, 0.4, 0.5].map(|alpha| format!("alpha={alpha}"));
-    let matched = results
-        .iter()
-        .find(|r| r.policy.starts_with("matched"))
-        .map(|r| r.policy.clone());
-    fixed
-        .into_iter()
-        .chain(matched)
-        .filter_map(|name| {
-            let r = results.iter().find(|r| r.policy == name)?;
-            Some(Ratio {
-                against: name,
-                stable: !r.blew_up,
-                steps_ratio: (!ours.blew_up && ours.steps > 0)
-                    .then(|| r.steps as f64 / ours.steps as f64),
-                same_step_count: r.steps == ours.steps,
-                error_ratio: ratio(ours.velocity_error_linf, r.velocity_error_linf),
-                error_ratio_raw: ratio(ours.velocity_error_linf_raw, r.velocity_error_linf_raw),
-                // Against a rule that blew up there is no time to the end: `None`.
-                wall_ratio: (!r.blew_up)
-                    .then(|| ratio(Some(ours.wall_seconds), Some(r.wall_seconds)))
-                    .flatten(),
-            })
-        })
-        .collect()
-}
-
-fn opt(v: Option<f64>, width: usize) -> String {
-    match v {
-        Some(x) => format!("{x:>width$.3e}"),
-        None => format!("{:>width$}", "null"),
-    }
-}
-
-fn print_table(path: &str, results: &[PolicyResult], ratios: &[Ratio], large_amplitude: bool) {
-    println!("scenario {path}");
-    println!(
-        "{:<21} {:>7} {:>8} {:>7} {:>10} {:>12} {:>12} {:>12} {:>9} {:>10}",
-        "policy",
-        "steps",
-        "rejected",
-        "blew_up",
-        "final_time",
-        "v_err_linf",
-        "v_err_raw",
-        "energy_drift",
-        "wall_s",
-        "dt_mean"
-    );
-    for r in results {
-        println!(
-            "{:<21} {:>7} {:>8} {:>7} {:>10.4} {} {} {} {:>9.3} {}",
-            r.policy,
-            r.steps,
-            r.rejected,
-            if r.blew_up { "YES" } else { "no" },
-            r.final_time,
-            opt(r.velocity_error_linf, 12),
-            opt(r.velocity_error_linf_raw, 12),
-            opt(r.energy_drift, 12),
-            r.wall_seconds,
-            opt(r.dt_mean, 10),
-        );
-        if let Some(f) = &r.failure {
-            println!("    {}: {f}", r.policy);
-        }
-    }
-    for q in ratios {
-        let verdict = match (q.stable, q.steps_ratio) {
-            (false, _) => "the fixed rule blew up".to_string(),
-            (true, None) => "mpm-dt blew up".to_string(),
-            (true, Some(s)) if q.against.starts_with("matched") => {
-                let errors = format!(
-                    "error ratio {} (raw {})",
-                    q.error_ratio.map_or("null".into(), |e| format!("{e:.3}")),
-                    q.error_ratio_raw
-                        .map_or("null".into(), |e| format!("{e:.3}")),
-                );
-                if q.same_step_count {
-                    let verdict = match q.error_ratio {
-                        Some(e) if e <= 1.0 => "at least as accurate with as many steps",
-                        Some(_) => "LESS accurate with as many steps",
-                        None => {
-                            "of unknown relative accuracy (no exact solution, or both errors 0)"
-                        }
-                    };
-                    format!("same step count, {errors} → mpm-dt {verdict}")
-                } else {
-                    format!(
-                        "no stable fixed multiplier hits mpm-dt's step count; the closest stable \
-                         one takes {s:.3}× its steps, {errors}"
-                    )
-                }
-            }
-            (true, Some(s)) => {
-                format!(
-                    "{:.2}× fewer steps, error ratio {} (raw {})",
-                    s,
-                    q.error_ratio
-                        .map_or("unavailable".into(), |e| format!("{e:.3}")),
-                    q.error_ratio_raw
-                        .map_or("unavailable".into(), |e| format!("{e:.3}")),
-                )
-            }
-        };
-        let wall = q
-            .wall_ratio
-            .map_or("unavailable".into(), |w| format!("{w:.3}"));
-        println!("mpm-dt vs {}: {verdict}; wall_ratio {wall}", q.against);
-    }
-    if large_amplitude {
-        println!("note: large amplitude — the linear standing wave is a reference, not the exact solution");
-    }
 }
 
 fn main() -> ExitCode {

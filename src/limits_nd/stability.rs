@@ -104,7 +104,7 @@ pub struct StabilityNdConfig {
     pub margin: f64,
     /// The scheme's velocity transfer (default [`TransferNd::Flip`], the paper's USL):
     /// with [`TransferNd::Apic`] the limit is `√(2(1 + p)/λmax)`, `p` the transfer's
-    /// Rayleigh quotient on the tracked top mode ([`super::transfer`]).
+    /// Rayleigh quotient on the tracked top mode (`limits_nd/transfer.rs`).
     pub transfer: TransferNd,
 }
 

@@ -35,6 +35,7 @@
 //!   and must satisfy `0 < l_p ≤ h`.
 
 mod material;
+mod particle_pass;
 mod reference;
 mod setup;
 mod slot_window;
