@@ -28,10 +28,14 @@
 //!   a value is not finite or some `F ≤ 0`), `A = --amplitude` (default `10⁻⁴`).
 //!
 //! Above 10 000 particles `bound58` and `dt_empirical` are `null` and `skipped` says why:
-//! their runs cost particles × steps, and the tool answers in seconds on any scenario.
+//! their runs cost particles × steps, and the tool answers in seconds on any scenario. In
+//! 2D and 3D the dense check, the full map and the bisection have size limits of their own
+//! (`limits_nd::critical`), and `skipped` names each column left `null`.
 
 mod common;
 
+use mpm_dt::limits_nd::critical;
+use mpm_dt::limits_nd::full_map::FULL_MAP_LIMIT;
 use mpm_dt::scenario::Scenario;
 use mpm_dt::stability::operator::spectral_norm;
 use mpm_dt::stability::{
@@ -90,7 +94,8 @@ fn parse_args() -> Result<Args, String> {
 /// of the standard d-dimensional limits for the initial state), `dt_empirical` (bisection,
 /// 4000 steps, amplitude `A`), and `dt_sound_over_critical`: `dt_sound` over the best
 /// critical step known (empirical, else full map, else eq 56) — above 1 the speed-of-sound
-/// step `h/c_p` is unsafe by that factor (`sound_unsafe_by = ratio − 1`, else 0).
+/// step `h/c_p` is unsafe by that factor (`sound_unsafe_by = ratio − 1`, else 0). A column
+/// beyond its tool's size limit is `null`, and `skipped` says which and why.
 fn run_nd<const D: usize>(
     scenario: &mpm_dt::nd::scenario::ScenarioNd,
     amplitude: f64,
@@ -99,7 +104,7 @@ where
     mpm_dt::Dim<D>: for<'a> mpm_dt::Dimension<View<'a> = mpm_dt::ViewNd<'a, D>>,
 {
     let (solver, _) = scenario.build::<D>()?;
-    let table = mpm_dt::limits_nd::critical::critical_table(&solver, Some((amplitude, 4000)));
+    let table = critical::critical_table(&solver, Some((amplitude, 4000)));
     let config = scenario.controller_config()?;
     let gravity = mpm_dt::nd::Vector::<D>::zeros();
     let view = solver.view();
@@ -113,6 +118,33 @@ where
         .unwrap_or(table.dt_eq56);
     let ratio = table.dt_sound / critical;
     let mut out = serde_json::to_value(&table)?;
+    // Why a column is `null`: the size limits of the small-problem tools.
+    let unknowns = view.n_nodes() * D;
+    let particle_unknowns = view.n_particles() * (D + D * (D + 1) / 2);
+    let pairs = view.n_particles() * view.weights.width();
+    let mut skipped = Vec::new();
+    if table.lambda_max_dense.is_none() {
+        skipped.push(format!(
+            "lambda_max_dense: {unknowns} nodal unknowns, above {}",
+            critical::DENSE_LIMIT
+        ));
+    }
+    if table.dt_full_map.is_none() {
+        skipped.push(if particle_unknowns > FULL_MAP_LIMIT {
+            format!("dt_full_map: {particle_unknowns} particle unknowns, above {FULL_MAP_LIMIT}")
+        } else {
+            "dt_full_map: its search bracketed no critical step".to_string()
+        });
+    }
+    if table.dt_empirical.is_none() {
+        skipped.push(format!(
+            "dt_empirical: {pairs} particle-node pairs, above {}",
+            critical::EMPIRICAL_LIMIT
+        ));
+    }
+    if !skipped.is_empty() {
+        out["skipped"] = json!(skipped.join("; "));
+    }
     out["dt_controller"] = json!(dt_controller);
     out["dt_sound_over_critical"] = json!(ratio);
     out["sound_unsafe_by"] = json!((ratio - 1.0).max(0.0));

@@ -182,3 +182,29 @@ fn critical_dt_answers_quickly_on_a_large_1d_scenario() {
     assert!((ratio - 0.5_f64.sqrt()).abs() < 1e-3, "{ratio}");
     assert!(start.elapsed().as_secs() < 10, "{:?}", start.elapsed());
 }
+
+#[test]
+fn critical_dt_names_every_column_it_skips_in_2d() {
+    // 10⁵ particles in 2D: the dense check, the full map and the bisection are beyond their
+    // size limits; `skipped` says which and why, and the columns it computed are numbers.
+    let out = run(
+        "critical_dt",
+        &["--scenario", "scenarios/nd/gimp_2d_1e5.json", "--json"],
+    );
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("json");
+    let skipped = v["skipped"]
+        .as_str()
+        .expect("skipped names the null columns");
+    for column in ["lambda_max_dense", "dt_full_map", "dt_empirical"] {
+        assert!(v[column].is_null(), "{column}");
+        assert!(skipped.contains(column), "{column} not named in {skipped}");
+    }
+    assert!(v["dt_eq56"].as_f64().is_some_and(|d| d > 0.0));
+    assert!(v["dt_sound_over_critical"].as_f64().is_some());
+}
