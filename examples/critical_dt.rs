@@ -30,7 +30,9 @@
 //! Above 10 000 particles `bound58` and `dt_empirical` are `null` and `skipped` says why:
 //! their runs cost particles × steps, and the tool answers in seconds on any scenario. In
 //! 2D and 3D the dense check, the full map and the bisection have size limits of their own
-//! (`limits_nd::critical`), and `skipped` names each column left `null`.
+//! (`limits_nd::critical`, `limits_nd::full_map`), and `skipped` names each of those three
+//! columns left `null`, with its size and limit (or "no result" when the tool ran and
+//! failed).
 
 mod common;
 
@@ -112,35 +114,46 @@ where
     for mut limit in mpm_dt::limits_nd::standard_limits::<D>(&config, gravity) {
         dt_controller = dt_controller.min(limit.propose(&view)?.dt);
     }
-    let critical = table
+    let best_known = table
         .dt_empirical
         .or(table.dt_full_map)
         .unwrap_or(table.dt_eq56);
-    let ratio = table.dt_sound / critical;
+    let ratio = table.dt_sound / best_known;
     let mut out = serde_json::to_value(&table)?;
-    // Why a column is `null`: the size limits of the small-problem tools.
+    // Why a column is `null`: the size limit of its small-problem tool, or the tool gave no
+    // result (the dense eigensolver or the full map's search failed; its error is not kept).
     let unknowns = view.n_nodes() * D;
     let particle_unknowns = view.n_particles() * (D + D * (D + 1) / 2);
     let pairs = view.n_particles() * view.weights.width();
+    let reason = |column: &str, count: usize, what: &str, limit: usize| {
+        if count > limit {
+            format!("{column}: {count} {what}, above {limit}")
+        } else {
+            format!("{column}: no result ({count} {what}, within the limit of {limit})")
+        }
+    };
     let mut skipped = Vec::new();
     if table.lambda_max_dense.is_none() {
-        skipped.push(format!(
-            "lambda_max_dense: {unknowns} nodal unknowns, above {}",
-            critical::DENSE_LIMIT
+        let limit = critical::DENSE_LIMIT;
+        skipped.push(reason(
+            "lambda_max_dense",
+            unknowns,
+            "nodal unknowns",
+            limit,
         ));
     }
     if table.dt_full_map.is_none() {
-        skipped.push(if particle_unknowns > FULL_MAP_LIMIT {
-            format!("dt_full_map: {particle_unknowns} particle unknowns, above {FULL_MAP_LIMIT}")
-        } else {
-            "dt_full_map: its search bracketed no critical step".to_string()
-        });
+        let limit = FULL_MAP_LIMIT;
+        skipped.push(reason(
+            "dt_full_map",
+            particle_unknowns,
+            "particle unknowns",
+            limit,
+        ));
     }
     if table.dt_empirical.is_none() {
-        skipped.push(format!(
-            "dt_empirical: {pairs} particle-node pairs, above {}",
-            critical::EMPIRICAL_LIMIT
-        ));
+        let limit = critical::EMPIRICAL_LIMIT;
+        skipped.push(reason("dt_empirical", pairs, "particle-node pairs", limit));
     }
     if !skipped.is_empty() {
         out["skipped"] = json!(skipped.join("; "));

@@ -5,7 +5,7 @@ use mpm_dt::scenario::Scenario;
 use mpm_dt::stability::{SoundSpeed, SoundSpeedConfig};
 use mpm_dt::Stepper;
 
-/// The fixed rule with mpm-dt's step count (module docs): its row, and the synchronised
+/// The fixed rule with mpm-dt's step count (module docs of `compare`): its row, and the synchronised
 /// errors of every sampled multiplier that took exactly that many steps.
 pub(crate) struct Matched {
     pub(crate) result: PolicyResult,
@@ -27,7 +27,7 @@ const SPREAD: [f64; 24] = {
     s
 };
 
-/// The fixed multiplier taking as many steps as `ours` (module docs): `Ok(None)` when `ours`
+/// The fixed multiplier taking as many steps as `ours` (module docs of `compare`): `Ok(None)` when `ours`
 /// blew up or took no step. The search runs at most 16 multipliers: the first guess from
 /// mpm-dt's mean step and the sound-speed step at `t = 0`, proportional corrections
 /// (steps ∝ 1/α) until the target is bracketed, then bisection. A run that blows up bounds α

@@ -16,7 +16,7 @@ use crate::controller::ENERGY_LANES;
 use crate::grid::Boundary;
 use crate::shape::{Shape, MAX_NODES};
 
-/// Step 2 in the best build the CPU supports (see the module docs).
+/// Step 2 in the best build the CPU supports (see the module docs of [`super::step`]).
 pub(super) fn particle_pass_dispatch(
     ctx: &Ctx<'_>,
     ws: &mut Workspace,
@@ -203,7 +203,7 @@ where
     }
 }
 
-/// [`Grid::wrap`] of a periodic grid for `y = x − origin`, with origin and length
+/// [`crate::grid::Grid::wrap`] of a periodic grid for `y = x − origin`, with origin and length
 /// hoisted: the same arithmetic, so the same bits.
 #[inline(always)]
 fn wrap_periodic(mut y: f64, origin: f64, length: f64) -> f64 {
@@ -216,7 +216,7 @@ fn wrap_periodic(mut y: f64, origin: f64, length: f64) -> f64 {
     origin + y
 }
 
-/// The fused particle pass (step 2 of the module docs).
+/// The fused particle pass (step 2 of the module docs of [`super::step`]).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn particle_pass<St, Up, Tg, const PERIODIC: bool>(

@@ -195,7 +195,7 @@ pub(super) fn deposit(
 
 /// A particle's weight in `K_N`, `k = E_t(F) F V⁰`, and its `E_t/ρ = k/m` (for `c²_ref`).
 #[inline(always)]
-pub(super) fn stiffness_weight(tangent: f64, f: f64, volume0: f64, mass: f64) -> (f64, f64) {
+fn stiffness_weight(tangent: f64, f: f64, volume0: f64, mass: f64) -> (f64, f64) {
     let k = tangent * f * volume0;
     (k, k / mass)
 }

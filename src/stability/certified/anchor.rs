@@ -12,7 +12,7 @@ use crate::stability::nodal::NodalOperator;
 use crate::stability::power_pass::FLUSH_RELATIVE;
 
 impl CertifiedTracker {
-    /// A new anchor on `op` (module docs): a certified bracket `lo ≤ λmax(C) < hi`, narrowed
+    /// A new anchor on `op` (module docs of [`super`]): a certified bracket `lo ≤ λmax(C) < hi`, narrowed
     /// to `hi ≤ (1 + margin) lo`. Every failed certificate at `μ` proves `λmax ≥ μ` up to
     /// the factorisation's rounding (a non-positive pivot makes a leading principal
     /// submatrix of a symmetric permutation of `μI − C` — or the Schur complement of a

@@ -72,5 +72,5 @@ impl<T: Fn(f64) -> bool> Bracket<T> {
 }
 
 /// Shifts tried above a served value that failed its certificate, `r ρ (1 + 2^k margin)` for
-/// `k = 1 …` this, before the Lanczos fall-back (module docs).
+/// `k = 1 …` this, before the Lanczos fall-back (module docs of [`super`]).
 pub(super) const GROWTH_STEPS: u32 = 4;

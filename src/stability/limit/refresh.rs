@@ -6,7 +6,7 @@ use crate::stability::error::StabilityError;
 use crate::stepper::View;
 
 /// When the [`super::Stability`] limit re-runs its Lanczos update in [`super::Tracking::Lanczos`] mode
-/// (module docs). An update happens when any threshold is crossed; the default updates at
+/// (module docs of [`super`]). An update happens when any threshold is crossed; the default updates at
 /// every proposal.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -38,7 +38,7 @@ impl Refresh {
     }
 
     /// The opt-in cached mode: update after 10 proposals, a displacement of 0.05 cells, or a
-    /// 5 % change of a nodal mass or of a particle's `E_t V` (see the module docs for its
+    /// 5 % change of a nodal mass or of a particle's `E_t V` (see the module docs of [`super`] for its
     /// known failure on collapsing linear-hat layouts).
     pub fn cached() -> Self {
         Self {

@@ -201,7 +201,7 @@ pub(super) fn chunks(inp: &Inputs<'_>, z: &mut [f64]) -> Interior {
             // z[i−4 .. i], which the block does not read.
             unsafe {
                 if zero_window(zp.add(i - 2)) {
-                    // A zero block (module docs): its diagonal tests only.
+                    // A zero block (module docs of `power_pass`): its diagonal tests only.
                     _mm256_storeu_pd(run.dst, run.pending);
                     run.pending = zero;
                     run.dst = zp.add(i + BLOCK - LANES);
