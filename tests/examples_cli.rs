@@ -34,6 +34,19 @@ fn run(name: &str, args: &[&str]) -> Output {
         .expect("example runs")
 }
 
+/// Runs example `name`, asserts it exits 0 (stderr in the message) and parses its stdout as
+/// one JSON document.
+fn run_json(name: &str, args: &[&str]) -> serde_json::Value {
+    let out = run(name, args);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).expect("one JSON document")
+}
+
 fn scenario_file(name: &str, json: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("mpm-dt-cli-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
@@ -90,17 +103,10 @@ fn a_bad_scenario_exits_one_naming_the_field() {
 
 #[test]
 fn simulate_runs_a_2d_scenario_and_reports_the_contract_keys() {
-    let out = run(
+    let v = run_json(
         "simulate",
         &["--scenario", "scenarios/nd/plane_p_2d.json", "--json"],
     );
-    assert_eq!(
-        out.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("one JSON document");
     for key in [
         "t_final",
         "steps_accepted",
@@ -162,17 +168,10 @@ fn critical_dt_answers_quickly_on_a_large_1d_scenario() {
     // 10⁵ particles: the dense and real-run columns are skipped (null), not attempted (a
     // dense matrix of this size does not fit in memory; the runs would take minutes).
     let start = std::time::Instant::now();
-    let out = run(
+    let v = run_json(
         "critical_dt",
         &["--scenario", "scenarios/gimp_uniform_1e5.json", "--json"],
     );
-    assert_eq!(
-        out.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("json");
     assert_eq!(v["particles"], 100_000);
     assert!(v["dt_empirical"].is_null() && v["lambda_max_dense"].is_null());
     assert!(v["skipped"].is_string());
@@ -187,17 +186,10 @@ fn critical_dt_answers_quickly_on_a_large_1d_scenario() {
 fn critical_dt_names_every_column_it_skips_in_2d() {
     // 10⁵ particles in 2D: the dense check, the full map and the bisection are beyond their
     // size limits; `skipped` says which and why, and the columns it computed are numbers.
-    let out = run(
+    let v = run_json(
         "critical_dt",
         &["--scenario", "scenarios/nd/gimp_2d_1e5.json", "--json"],
     );
-    assert_eq!(
-        out.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("json");
     let skipped = v["skipped"]
         .as_str()
         .expect("skipped names the null columns");
