@@ -28,7 +28,8 @@
 //!   a value is not finite or some `F ≤ 0`), `A = --amplitude` (default `10⁻⁴`).
 //!
 //! Above 10 000 particles `bound58` and `dt_empirical` are `null` and `skipped` says why:
-//! their runs cost particles × steps, and the tool answers in seconds on any scenario. In
+//! their runs cost particles × steps, and the tool answers in seconds on any scenario;
+//! above the dense limit `skipped` also names the dense columns left `null`. In
 //! 2D and 3D the dense check, the full map and the bisection have size limits of their own
 //! (`limits_nd::critical`, `limits_nd::full_map`), and `skipped` names each of those three
 //! columns left `null`, with its size and limit (or "no result" when the tool ran and
@@ -258,6 +259,14 @@ fn run(args: &Args) -> Result<Value, Box<dyn std::error::Error>> {
     });
     let ratio_eq56 = dt_eq56 / dt_eq49;
     let ratio_full = dt_full.map(|d| d / dt_eq49);
+    // Why columns are `null`: the dense tools' and the real runs' size limits.
+    let mut skipped = Vec::new();
+    if !small {
+        skipped.push(format!(
+            "lambda_max_dense, dt_full_map and bound58's norm_2 and rho above {DENSE_LIMIT} \
+             particles"
+        ));
+    }
     if n > RUN_LIMIT {
         tracing::info!(
             n,
@@ -268,9 +277,10 @@ fn run(args: &Args) -> Result<Value, Box<dyn std::error::Error>> {
         table["dt_empirical"] = Value::Null;
         table["dt_empirical_bracket"] = Value::Null;
         table["empirical_runs"] = json!(0);
-        table["skipped"] = json!(format!(
+        skipped.push(format!(
             "eq 58 and the empirical bisection above {RUN_LIMIT} particles"
         ));
+        table["skipped"] = json!(skipped.join("; "));
         table["ratios_to_h_over_c"] =
             json!({"eq56": ratio_eq56, "full_map": ratio_full, "empirical": null});
         return Ok(table);
@@ -330,6 +340,9 @@ fn run(args: &Args) -> Result<Value, Box<dyn std::error::Error>> {
         "full_map": ratio_full,
         "empirical": emp.dt() / dt_eq49,
     });
+    if !skipped.is_empty() {
+        table["skipped"] = json!(skipped.join("; "));
+    }
     Ok(table)
 }
 
