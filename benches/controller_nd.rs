@@ -1,0 +1,110 @@
+//! One controlled step against one bare step of the d-dimensional reference solver, side by
+//! side in one run: the cost of a controlled step in bare steps, the figure the controller's
+//! wall time rests on (a run ends in `cost × steps_controlled / steps_rule` of a fixed
+//! rule's time).
+//!
+//! Periodic box, 2 particles per cell per axis, a small plane wave, about 10⁵ particles
+//! (2D GIMP; 3D GIMP and quadratic B-splines). Per layout:
+//!
+//! * `rule` — the fixed rule's step: `SoundSpeedNd::unit_step` on the committed state, then
+//!   `try_step(0.4·unit)` and `accept` (what `simulate --compare` times for α = 0.4);
+//! * `controlled` — `Controller::step` with `standard_limits` and the default settings (the
+//!   speed-of-sound cap, the tracked eq 56 limit, the temporal error, the growth monitor),
+//!   warmed up by a few steps first so that the cold λmax start is not in the samples;
+//! * `controlled_no_temporal` — the same with `temporal.enabled = false`, for the temporal
+//!   error's share.
+//!
+//! `cargo bench --bench controller_nd`; the ratio `controlled / rule` is the cost of one
+//! controlled step in bare steps.
+
+use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use mpm_dt::controller::{Controller, ControllerConfig};
+use mpm_dt::limits_nd::{standard_limits, SoundSpeedNd};
+use mpm_dt::nd::{GridNd, MaterialNd, ParticlesNd, ShapeNd, SolverNd, Vector};
+use mpm_dt::{Boundary, Dim, Dimension, Stepper, ViewNd};
+use std::hint::black_box;
+
+fn solver<const D: usize>(cells: usize, shape: ShapeNd) -> SolverNd<D> {
+    let grid = GridNd::<D>::new([Boundary::Periodic; D], [cells; D], [1.0; D]);
+    let material = MaterialNd::LinearElastic {
+        youngs_modulus: 1.0,
+        poisson_ratio: 0.3,
+    };
+    let mut particles = ParticlesNd::uniform(&grid, [2; D], 1.0, material);
+    for p in 0..particles.len() {
+        particles.v[p][0] = 1e-3 * (2.0 * std::f64::consts::PI * particles.x[p][0]).sin();
+    }
+    match SolverNd::new(grid, shape, particles, Vector::<D>::zeros()) {
+        Ok(s) => s,
+        Err(e) => panic!("bench set-up failed: {e}"),
+    }
+}
+
+/// A controller with the standard limits, warmed up by `warm` steps on `s`.
+fn warmed<const D: usize>(s: &mut SolverNd<D>, temporal: bool, warm: usize) -> Controller<D>
+where
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+{
+    let mut config = ControllerConfig::default();
+    config.temporal.enabled = temporal;
+    let limits = standard_limits::<D>(&config, Vector::<D>::zeros());
+    let mut controller = match Controller::<D>::new(config, limits) {
+        Ok(c) => c,
+        Err(e) => panic!("bench set-up failed: {e}"),
+    };
+    for _ in 0..warm {
+        if let Err(e) = controller.step(s, f64::INFINITY) {
+            panic!("warm-up step failed: {e}");
+        }
+    }
+    controller
+}
+
+fn bench<const D: usize>(c: &mut Criterion, cells: usize, shapes: &[ShapeNd])
+where
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+{
+    let mut group = c.benchmark_group(format!("controlled_vs_rule_{D}d"));
+    group.sample_size(10);
+    for &shape in shapes {
+        let particles = solver::<D>(cells, shape).n_particles();
+        group.throughput(Throughput::Elements(particles as u64));
+        let id = |name: &str| BenchmarkId::new(format!("{shape:?}/{name}"), particles);
+
+        let mut s = solver::<D>(cells, shape);
+        group.bench_function(id("rule"), |b| {
+            b.iter(|| {
+                let unit = match SoundSpeedNd::unit_step(&s.view()) {
+                    Ok(u) => u,
+                    Err(e) => panic!("sound speed failed: {e}"),
+                };
+                if let Err(e) = s.try_step(black_box(0.4 * unit)) {
+                    panic!("step failed: {e}");
+                }
+                let _ = s.accept();
+            })
+        });
+
+        for (name, temporal) in [("controlled", true), ("controlled_no_temporal", false)] {
+            let mut s = solver::<D>(cells, shape);
+            let mut controller = warmed(&mut s, temporal, 5);
+            group.bench_function(id(name), |b| {
+                b.iter(|| {
+                    if let Err(e) = controller.step(&mut s, f64::INFINITY) {
+                        panic!("controlled step failed: {e}");
+                    }
+                })
+            });
+        }
+    }
+    group.finish();
+}
+
+fn bench_controlled(c: &mut Criterion) {
+    // 158² cells × 4 ≈ 10⁵ particles in 2D; 23³ cells × 8 ≈ 10⁵ in 3D.
+    bench::<2>(c, 158, &[ShapeNd::Gimp]);
+    bench::<3>(c, 23, &[ShapeNd::Gimp, ShapeNd::BSpline2]);
+}
+
+criterion_group!(benches, bench_controlled);
+criterion_main!(benches);
