@@ -56,6 +56,10 @@ const DENSE_LIMIT: usize = 120;
 /// Most particles for which the real runs (eq 58's state, the empirical bisection) are made.
 const RUN_LIMIT: usize = 10_000;
 
+/// Why `dt_controller` is `null` (JSON has no infinity): the scenario's configuration has
+/// no limit that proposes a step for the initial state.
+const NO_PROPOSAL: &str = "dt_controller: no limit of the configuration proposes a step";
+
 const USAGE: &str = "usage: critical_dt --scenario FILE [--json] [--amplitude A]";
 
 /// `parse_args`' answer to `--help`.
@@ -155,6 +159,9 @@ where
     if table.dt_empirical.is_none() {
         let limit = critical::EMPIRICAL_LIMIT;
         skipped.push(reason("dt_empirical", pairs, "particle-node pairs", limit));
+    }
+    if !dt_controller.is_finite() {
+        skipped.push(NO_PROPOSAL.to_string());
     }
     if !skipped.is_empty() {
         out["skipped"] = json!(skipped.join("; "));
@@ -261,6 +268,9 @@ fn run(args: &Args) -> Result<Value, Box<dyn std::error::Error>> {
     let ratio_full = dt_full.map(|d| d / dt_eq49);
     // Why columns are `null`: the dense tools' and the real runs' size limits.
     let mut skipped = Vec::new();
+    if !dt_controller.is_finite() {
+        skipped.push(NO_PROPOSAL.to_string());
+    }
     if !small {
         skipped.push(format!(
             "lambda_max_dense, dt_full_map and bound58's norm_2 and rho above {DENSE_LIMIT} \

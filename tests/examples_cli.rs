@@ -204,3 +204,21 @@ fn critical_dt_names_every_column_it_skips_in_2d() {
     assert!(v["dt_eq56"].as_f64().is_some_and(|d| d > 0.0));
     assert!(v["dt_sound_over_critical"].as_f64().is_some());
 }
+
+#[test]
+fn critical_dt_says_why_the_controller_step_is_null() {
+    // No limit that proposes a step: `dt_controller` is infinite, which JSON writes as
+    // `null`; `skipped` says why.
+    let path = scenario_file(
+        "no_proposal.json",
+        r#"{"cells": 10, "particles": {"per_cell": 2},
+            "controller": {"stability": null, "sound_speed": null}}"#,
+    );
+    let v = run_json(
+        "critical_dt",
+        &["--scenario", path.to_str().unwrap(), "--json"],
+    );
+    assert!(v["dt_controller"].is_null());
+    let skipped = v["skipped"].as_str().expect("skipped says why");
+    assert!(skipped.contains("dt_controller"), "{skipped}");
+}
