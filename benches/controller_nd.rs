@@ -17,28 +17,15 @@
 //! `cargo bench --bench controller_nd`; the ratio `controlled / rule` is the cost of one
 //! controlled step in bare steps.
 
+use common::solver;
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use mpm_dt::controller::{Controller, ControllerConfig};
 use mpm_dt::limits_nd::{standard_limits, SoundSpeedNd};
-use mpm_dt::nd::{GridNd, MaterialNd, ParticlesNd, ShapeNd, SolverNd, Vector};
-use mpm_dt::{Boundary, Dim, Dimension, Stepper, ViewNd};
+use mpm_dt::nd::{ShapeNd, SolverNd, Vector};
+use mpm_dt::{Dim, Dimension, Stepper, ViewNd};
 use std::hint::black_box;
 
-fn solver<const D: usize>(cells: usize, shape: ShapeNd) -> SolverNd<D> {
-    let grid = GridNd::<D>::new([Boundary::Periodic; D], [cells; D], [1.0; D]);
-    let material = MaterialNd::LinearElastic {
-        youngs_modulus: 1.0,
-        poisson_ratio: 0.3,
-    };
-    let mut particles = ParticlesNd::uniform(&grid, [2; D], 1.0, material);
-    for p in 0..particles.len() {
-        particles.v[p][0] = 1e-3 * (2.0 * std::f64::consts::PI * particles.x[p][0]).sin();
-    }
-    match SolverNd::new(grid, shape, particles, Vector::<D>::zeros()) {
-        Ok(s) => s,
-        Err(e) => panic!("bench set-up failed: {e}"),
-    }
-}
+mod common;
 
 /// A controller with the standard limits, warmed up by `warm` steps on `s`.
 fn warmed<const D: usize>(s: &mut SolverNd<D>, temporal: bool, warm: usize) -> Controller<D>

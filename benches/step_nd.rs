@@ -2,26 +2,13 @@
 //! box, 2 particles per cell per axis, GIMP and quadratic B-splines, 10⁴ … 10⁶ particles in
 //! 2D and 3D. Throughput is in particles: criterion reports particle-steps per second.
 
+use common::{solver, MATERIAL};
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use mpm_dt::nd::{GridNd, MaterialNd, ParticlesNd, ShapeNd, SolverNd, Vector};
-use mpm_dt::{Boundary, Dim, Dimension, Stepper, ViewNd};
+use mpm_dt::nd::ShapeNd;
+use mpm_dt::{Dim, Dimension, Stepper, ViewNd};
 use std::hint::black_box;
 
-fn solver<const D: usize>(cells: usize, shape: ShapeNd) -> SolverNd<D> {
-    let grid = GridNd::<D>::new([Boundary::Periodic; D], [cells; D], [1.0; D]);
-    let material = MaterialNd::LinearElastic {
-        youngs_modulus: 1.0,
-        poisson_ratio: 0.3,
-    };
-    let mut particles = ParticlesNd::uniform(&grid, [2; D], 1.0, material);
-    for p in 0..particles.len() {
-        particles.v[p][0] = 1e-3 * (2.0 * std::f64::consts::PI * particles.x[p][0]).sin();
-    }
-    match SolverNd::new(grid, shape, particles, Vector::<D>::zeros()) {
-        Ok(s) => s,
-        Err(e) => panic!("bench set-up failed: {e}"),
-    }
-}
+mod common;
 
 fn bench<const D: usize>(c: &mut Criterion, cells: &[usize])
 where
@@ -34,13 +21,7 @@ where
             let mut s = solver::<D>(n, shape);
             let particles = s.n_particles();
             // Half the sound-speed step h/c_p: stable for both shapes.
-            let dt = 0.5 * s.grid().h_min()
-                / MaterialNd::LinearElastic {
-                    youngs_modulus: 1.0,
-                    poisson_ratio: 0.3,
-                }
-                .p_modulus()
-                .sqrt();
+            let dt = 0.5 * s.grid().h_min() / MATERIAL.p_modulus().sqrt();
             group.throughput(Throughput::Elements(particles as u64));
             group.bench_with_input(
                 BenchmarkId::new(format!("{shape:?}"), particles),

@@ -42,8 +42,8 @@ use mpm_dt::limits_nd::full_map::FULL_MAP_LIMIT;
 use mpm_dt::scenario::Scenario;
 use mpm_dt::stability::operator::spectral_norm;
 use mpm_dt::stability::{
-    bound58, Bound58Reading, EmpiricalConfig, Eq56Operator, FullMap, FullMapConfig,
-    LambdaMaxTracker, LanczosConfig, Protocol, SoundSpeed, Stability,
+    bound58, Bound58Reading, EmpiricalConfig, EmpiricalCritical, Eq56Operator, FullMap,
+    FullMapConfig, LambdaMaxTracker, LanczosConfig, Protocol, SoundSpeed, Stability,
 };
 use mpm_dt::{StepLimit, Stepper};
 use serde_json::{json, Value};
@@ -277,29 +277,60 @@ fn run(args: &Args) -> Result<Value, Box<dyn std::error::Error>> {
              particles"
         ));
     }
-    if n > RUN_LIMIT {
+    let runs = if n > RUN_LIMIT {
         tracing::info!(
             n,
             RUN_LIMIT,
             "too many particles for the real runs: skipped"
         );
-        table["bound58"] = Value::Null;
-        table["dt_empirical"] = Value::Null;
-        table["dt_empirical_bracket"] = Value::Null;
-        table["empirical_runs"] = json!(0);
         skipped.push(format!(
             "eq 58 and the empirical bisection above {RUN_LIMIT} particles"
         ));
+        None
+    } else {
+        Some(real_runs(
+            &grid,
+            scenario.shape,
+            material,
+            &protocol,
+            (dt_eq49, dt_eq56, c),
+            small,
+        )?)
+    };
+    let (bound, emp) = match runs {
+        Some((bound, emp)) => (Some(bound), Some(emp)),
+        None => (None, None),
+    };
+    table["bound58"] = json!(bound);
+    table["dt_empirical"] = json!(emp.map(|e| e.dt()));
+    table["dt_empirical_bracket"] = json!(emp.map(|e| [e.dt_stable, e.dt_unstable]));
+    table["empirical_runs"] = json!(emp.map_or(0, |e| e.runs));
+    table["ratios_to_h_over_c"] = json!({
+        "eq56": ratio_eq56,
+        "full_map": ratio_full,
+        "empirical": emp.map(|e| e.dt() / dt_eq49),
+    });
+    if !skipped.is_empty() {
         table["skipped"] = json!(skipped.join("; "));
-        table["ratios_to_h_over_c"] =
-            json!({"eq56": ratio_eq56, "full_map": ratio_full, "empirical": null});
-        return Ok(table);
     }
+    Ok(table)
+}
 
+/// The real runs of a 1D table: eq 58 (both readings, and the dense `‖A‖₂` and `ρ(A)` on
+/// small layouts) on the state a quarter period into a stable run, at multiples of
+/// `dt_eq56`, and the empirical bisection. `steps` are `(dt_eq49, dt_eq56, c)`, `c` the wave speed.
+fn real_runs(
+    grid: &mpm_dt::Grid,
+    shape: mpm_dt::Shape,
+    material: mpm_dt::mpm::Material,
+    protocol: &Protocol,
+    (dt_eq49, dt_eq56, c): (f64, f64, f64),
+    small: bool,
+) -> Result<(Vec<Value>, EmpiricalCritical), Box<dyn std::error::Error>> {
     // eq 58 on the state a quarter period into a stable run.
     let mut s = mpm_dt::mpm::ReferenceStepper::new(
         grid.clone(),
-        scenario.shape,
+        shape,
         material,
         protocol.initial().clone(),
     )?;
@@ -341,19 +372,7 @@ fn run(args: &Args) -> Result<Value, Box<dyn std::error::Error>> {
 
     let emp = protocol.critical_dt(0.5 * dt_eq49, 1.5 * dt_eq49)?;
     tracing::info!(?emp, "empirical");
-    table["bound58"] = json!(bound);
-    table["dt_empirical"] = json!(emp.dt());
-    table["dt_empirical_bracket"] = json!([emp.dt_stable, emp.dt_unstable]);
-    table["empirical_runs"] = json!(emp.runs);
-    table["ratios_to_h_over_c"] = json!({
-        "eq56": ratio_eq56,
-        "full_map": ratio_full,
-        "empirical": emp.dt() / dt_eq49,
-    });
-    if !skipped.is_empty() {
-        table["skipped"] = json!(skipped.join("; "));
-    }
-    Ok(table)
+    Ok((bound, emp))
 }
 
 fn main() -> ExitCode {

@@ -22,7 +22,7 @@
 //! alone (`I − dt² M⁻¹K` on nodal velocities); the full map also carries the particle
 //! velocity update and the projection between particles and nodes.
 
-use crate::nd::{det, Tensor, Vector, ViewNd};
+use crate::nd::{Tensor, Vector, ViewNd};
 use crate::stability::{FullMap, FullMapConfig, StabilityError};
 use faer::Mat;
 
@@ -68,7 +68,7 @@ fn step<const D: usize>(view: &ViewNd<'_, D>, dt: f64, z: &[f64], out: &mut [f64
     let mut node_a = vec![Vector::<D>::zeros(); nn];
     for p in 0..n {
         let mv = v(p) * view.mass[p];
-        let vs = sigma(p) * (-(det(&view.f[p]) * view.volume0[p]));
+        let vs = sigma(p) * (-view.volume(p));
         for ((&i, &s), g) in w.nodes_of(p).iter().zip(w.s_of(p)).zip(w.grad_of(p)) {
             node_v[i as usize] += mv * s;
             node_a[i as usize] += vs * g;

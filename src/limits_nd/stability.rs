@@ -185,7 +185,7 @@ impl<const D: usize> StabilityNd<D> {
     /// and `2Vμ_t` (deviatoric), the latter stored halved as `Vμ_t`.
     #[inline]
     fn moduli(view: &ViewNd<'_, D>, p: usize) -> (f64, f64) {
-        let vol = crate::nd::det(&view.f[p]) * view.volume0[p];
+        let vol = view.volume(p);
         let (l, m) = (view.lame_lambda[p], view.lame_mu[p]);
         (vol * (D as f64 * l + 2.0 * m), vol * m)
     }
@@ -236,8 +236,14 @@ impl<const D: usize> StabilityNd<D> {
 
     /// `None` when the cached `λmax` must be recomputed, else the factor `r ≥ 1` it is
     /// multiplied by for the moduli's growth since the refresh (module docs).
-    /// `m_min` is the view's [`Self::smallest_node_mass`].
-    fn staleness(&mut self, view: &ViewNd<'_, D>, m_min: f64) -> Option<f64> {
+    /// `m_min` is the view's [`Self::smallest_node_mass`]; `diag` receives
+    /// [`diagonal_argmax`] of the view when the check computes it (a refresh reuses it).
+    fn staleness(
+        &mut self,
+        view: &ViewNd<'_, D>,
+        m_min: f64,
+        diag: &mut Option<(f64, usize)>,
+    ) -> Option<f64> {
         if self.lambda.is_none()
             || self.age >= self.config.max_age
             || self.x_ref.len() != Self::n_refs(view)
@@ -252,7 +258,7 @@ impl<const D: usize> StabilityNd<D> {
         }
         if m_min < (1.0 - self.config.refresh_mass) * self.mass_ref {
             // A lighter node: refresh only if some node's diagonal of A grew (module docs).
-            let d = diagonal_argmax(view, &*self.reduce).0;
+            let d = diag.insert(diagonal_argmax(view, &*self.reduce)).0;
             let growth = d / self.diag_ref;
             if growth.is_nan() || growth > 1.0 + self.config.refresh_diagonal {
                 return None;
@@ -336,15 +342,21 @@ impl<const D: usize> StabilityNd<D> {
         self.moduli_ref = buf.chunks_exact(w).map(|c| (c[D], c[D + 1])).collect();
     }
 
-    /// `m_min` is the view's [`Self::smallest_node_mass`].
-    fn refresh(&mut self, view: &ViewNd<'_, D>, m_min: f64) -> Result<f64, LimitError> {
+    /// `m_min` is the view's [`Self::smallest_node_mass`], `diag` its [`diagonal_argmax`]
+    /// when [`Self::staleness`] computed it.
+    fn refresh(
+        &mut self,
+        view: &ViewNd<'_, D>,
+        m_min: f64,
+        diag: Option<(f64, usize)>,
+    ) -> Result<f64, LimitError> {
         let n = view.n_nodes() * D;
         let space = NodalSpace::new(view, &*self.reduce);
         // Component `c` of the local vectors is component `global(c)` of the whole grid's:
         // starts are functions of the latter, the same however the grid is split.
         let global = |c: usize| space.global(c / D) * D + c % D;
         let n_global = (space.global_nodes() * D) as f64;
-        let (diag_max, diag_at) = diagonal_argmax(view, &*self.reduce);
+        let (diag_max, diag_at) = diag.unwrap_or_else(|| diagonal_argmax(view, &*self.reduce));
         let warm = self.ritz.len() == n;
         let mut start: Vec<f64> = if warm {
             // Warm start, nudged so that it is never orthogonal to a new top mode.
@@ -450,7 +462,8 @@ where
         let mut metrics = Metrics::new();
         // The smallest nodal mass first: a reduction every process makes, on every step.
         let m_min = self.smallest_node_mass(state);
-        let local = self.staleness(state, m_min);
+        let mut diag = None;
+        let local = self.staleness(state, m_min, &mut diag);
         // The processes of a split run agree: any stale part refreshes everywhere, and
         // the moduli growth is the largest of all (`crate::reduce`).
         let (neg_growth, stale) = Self::agreement(&*self.reduce, state)
@@ -459,7 +472,7 @@ where
         let lambda = match (agreed, self.lambda) {
             (Some(growth), Some(cached)) => cached * growth,
             _ => {
-                let l = self.refresh(state, m_min)?;
+                let l = self.refresh(state, m_min, diag)?;
                 metrics.insert("refreshes".into(), self.refreshes as f64);
                 metrics.insert("lanczos_applications".into(), self.applications as f64);
                 l

@@ -17,6 +17,7 @@
 
 use crate::nd::{Tensor, Vector, ViewNd};
 use crate::reduce::{Reduce, SingleProcess};
+use crate::stability::lambda_max::{dot, top_ritz};
 use faer::Mat;
 
 /// `M^{-1/2}` on the nodes: `1/√m_i` at active nodes, 0 elsewhere (inactive nodes drop out
@@ -51,7 +52,7 @@ pub fn apply_scaled<const D: usize>(
 pub(super) fn volume_moduli<const D: usize>(view: &ViewNd<'_, D>) -> Vec<(f64, f64)> {
     (0..view.n_particles())
         .map(|p| {
-            let vol = crate::nd::det(&view.f[p]) * view.volume0[p];
+            let vol = view.volume(p);
             (vol * view.lame_lambda[p], vol * view.lame_mu[p])
         })
         .collect()
@@ -119,7 +120,7 @@ pub fn diagonal_argmax<const D: usize>(view: &ViewNd<'_, D>, reduce: &dyn Reduce
     let mut diag = vec![0.0; view.n_nodes() * D];
     let w = &view.weights;
     for p in 0..view.n_particles() {
-        let vol = crate::nd::det(&view.f[p]) * view.volume0[p];
+        let vol = view.volume(p);
         let (l, m) = (view.lame_lambda[p], view.lame_mu[p]);
         for (&i, g) in w.nodes_of(p).iter().zip(w.grad_of(p)) {
             let i = i as usize;
@@ -434,7 +435,7 @@ pub fn lanczos_reduced<const D: usize>(
             }
         }
         let bnorm = dots(&[&w], &w)[0].sqrt();
-        let (theta, y) = tridiagonal_top(&alpha, &beta);
+        let (theta, y) = top_ritz(&alpha, &beta);
         let residual = bnorm * y.last().copied().unwrap_or(0.0).abs();
         let settled = (theta - best.0).abs() <= 0.1 * tol * theta.abs();
         settled_runs = if settled { settled_runs + 1 } else { 0 };
@@ -468,42 +469,4 @@ pub fn lanczos_reduced<const D: usize>(
         vector,
         applications: alpha.len(),
     }
-}
-
-/// The Euclidean inner product.
-pub(super) fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
-}
-
-/// Largest eigenpair of the symmetric tridiagonal matrix (`alpha` diagonal, `beta`
-/// off-diagonal).
-fn tridiagonal_top(alpha: &[f64], beta: &[f64]) -> (f64, Vec<f64>) {
-    let k = alpha.len();
-    let t = nalgebra::DMatrix::<f64>::from_fn(k, k, |i, j| {
-        if i == j {
-            alpha[i]
-        } else if i + 1 == j {
-            beta[i]
-        } else if j + 1 == i {
-            beta[j]
-        } else {
-            0.0
-        }
-    });
-    let eig = t.symmetric_eigen();
-    let (imax, _) =
-        eig.eigenvalues
-            .iter()
-            .enumerate()
-            .fold((0, f64::NEG_INFINITY), |(bi, bv), (i, &v)| {
-                if v > bv {
-                    (i, v)
-                } else {
-                    (bi, bv)
-                }
-            });
-    (
-        eig.eigenvalues[imax],
-        eig.eigenvectors.column(imax).iter().copied().collect(),
-    )
 }

@@ -30,7 +30,9 @@
 //!
 //! **One pass.** The 1D limit takes `max(this step's scale, the previous step's)`; here
 //! the weights keep the previous step's scale unless this step's exceeds it by more than
-//! 10 % (then the sums are redone with the larger one). A scale that grew by less makes
+//! 10 % (then the sums are redone with the larger one); with no previous step (the first,
+//! or after a lost history) a pass over the fields alone gives the scales first. A scale
+//! that grew by less makes
 //! the weights at most 10 % smaller in their `atol_rel` part than the 1D definition's —
 //! a stricter test — and saves the second pass over the particles that the scale, known
 //! only after the first, would otherwise need.
@@ -57,7 +59,7 @@
 //! **Not carried over:** the balancing of eq 44's spatial error (`balance`), whose
 //! estimators are 1D; a configured `balance` is reported as an error, not ignored.
 
-use super::temporal_sweep::{sweep, History, Pairing, LEFT_OUT, NONE};
+use super::temporal_sweep::{sweep, History, Pairing, Weights, LEFT_OUT, NONE};
 use crate::controller::{metric, TemporalErrorConfig, TEMPORAL_ERROR};
 use crate::dimension::{Dim, Dimension};
 use crate::limit::{Judgement, LimitError, Metrics, Proposal, RejectCause, StepLimit, Verdict};
@@ -83,8 +85,9 @@ struct Estimate {
 pub struct TemporalErrorNd<const D: usize> {
     config: TemporalErrorConfig,
     history: Option<History<D>>,
-    /// The rates of the last judged trial `(t, dt, rates)`, reused by `accepted`.
-    judged: Option<(f64, f64, History<D>)>,
+    /// The rates of the last judged trial with its start time `(t, rates)` (its step is
+    /// `rates.dt`), reused by `accepted`.
+    judged: Option<(f64, History<D>)>,
     /// A history no longer needed, whose arrays the next estimate overwrites.
     spare: Option<History<D>>,
     /// Run-wide id → committed index (grid-decomposed runs, steps where particles moved).
@@ -214,40 +217,39 @@ impl<const D: usize> TemporalErrorNd<D> {
         // The weights need this trial's field scales, known only after a pass: the first
         // sweep uses the previous step's, and a second sweep, writing nothing, redoes the
         // sums with `max(new, previous)` only when a scale grew by more than
-        // `SCALE_SLACK` (the first step; a run gaining energy). Below that, the weights are
+        // `SCALE_SLACK` (a run gaining energy). Below that, the weights are
         // at most that much smaller than the 1D limit's: a stricter test (module docs).
         let c = &self.config;
-        let abs_of =
-            |sv: f64, ss: f64| (c.atol_v + c.atol_rel * sv, c.atol_sigma + c.atol_rel * ss);
-        let (prev_v, prev_s) = self
-            .history
-            .as_ref()
-            .map_or((0.0, 0.0), |h| (h.v_scale, h.sigma_scale));
+        let weights = |sv: f64, ss: f64| {
+            Some(Weights {
+                rtol: c.rtol,
+                abs: (c.atol_v + c.atol_rel * sv, c.atol_sigma + c.atol_rel * ss),
+            })
+        };
         let pair = Pairing {
             moved,
             slot_before: &self.slot_before,
             before_ids,
             history,
         };
-        let first = sweep(
-            before,
-            after,
-            dt,
-            &pair,
-            c.rtol,
-            abs_of(prev_v, prev_s),
-            Some(out),
-        );
-        let [vm, sm, vs2, sv2] = first.maxima;
+        // `(‖v‖_∞, ‖σ‖_∞)` of a sweep's maxima (the impedance-scaled ones included).
+        let scales = |[vm, sm, vs2, sv2]: [f64; 4]| (vm.max(vs2).sqrt(), sm.max(sv2).sqrt());
+        let (prev_v, prev_s) = match self.history.as_ref() {
+            Some(h) => (h.v_scale, h.sigma_scale),
+            // No previous scales (the first step, or a history lost): the scales from a
+            // pass over the fields alone, so that the sums are taken once, with this
+            // step's own scales, as a second sweep would take them.
+            None => scales(sweep(before, after, dt, &pair, None, None).maxima),
+        };
+        let first = sweep(before, after, dt, &pair, weights(prev_v, prev_s), Some(out));
         let finite = first.finite;
-        let v_scale = vm.max(vs2).sqrt();
-        let sigma_scale = sm.max(sv2).sqrt();
+        let (v_scale, sigma_scale) = scales(first.maxima);
         let grew = |new: f64, prev: f64| new > (1.0 + SCALE_SLACK) * prev;
         let sweep = if !grew(v_scale, prev_v) && !grew(sigma_scale, prev_s) {
             first
         } else {
-            let abs = abs_of(v_scale.max(prev_v), sigma_scale.max(prev_s));
-            sweep(before, after, dt, &pair, c.rtol, abs, None)
+            let w = weights(v_scale.max(prev_v), sigma_scale.max(prev_s));
+            sweep(before, after, dt, &pair, w, None)
         };
         out.dt = dt;
         out.v_scale = v_scale;
@@ -304,7 +306,7 @@ where
                 return Err(err);
             }
         };
-        if let Some((_, _, old)) = self.judged.replace((before.t, dt, rates)) {
+        if let Some((_, old)) = self.judged.replace((before.t, rates)) {
             self.spare = Some(old);
         }
         let mut metrics = Metrics::new();
@@ -330,12 +332,21 @@ where
     fn accepted(&mut self, before: &ViewNd<'_, D>, after: &ViewNd<'_, D>, dt: f64) {
         // The judged trial's rates when it is this one, else recomputed.
         let new = match self.judged.take() {
-            Some((t, d, h)) if t.to_bits() == before.t.to_bits() && d.to_bits() == dt.to_bits() => {
+            Some((t, h)) if t.to_bits() == before.t.to_bits() && h.dt.to_bits() == dt.to_bits() => {
                 Some(h)
             }
             stale => {
-                let mut h = stale.map(|(_, _, h)| h).unwrap_or_default();
-                self.estimate(before, after, dt, &mut h).ok().map(|_| h)
+                let mut h = match stale {
+                    Some((_, h)) => h,
+                    None => self.take_buffer(),
+                };
+                match self.estimate(before, after, dt, &mut h) {
+                    Ok(_) => Some(h),
+                    Err(_) => {
+                        self.spare = Some(h);
+                        None
+                    }
+                }
             }
         };
         // Without this step's rates the old history would be two steps old: dropped, so
@@ -350,7 +361,7 @@ where
     }
 
     fn rejected(&mut self, _dt: f64, _cause: RejectCause) {
-        if let Some((_, _, h)) = self.judged.take() {
+        if let Some((_, h)) = self.judged.take() {
             self.spare = Some(h);
         }
     }

@@ -86,16 +86,23 @@ pub(super) fn nodal_rates<const D: usize>(
     (a, rate)
 }
 
-/// One pass over the trial's particles: their rates (written into `out` when given),
-/// the maxima behind the field scales, and the sums of `(le/w)²` with the absolute
-/// parts `abs = (atol_v + atol_rel ‖v‖_∞, atol_σ + atol_rel ‖σ‖_∞)` of the weights.
+/// The weights `w = abs + rtol·û` of a sweep's sums: `abs = (atol_v + atol_rel ‖v‖_∞,
+/// atol_σ + atol_rel ‖σ‖_∞)`.
+#[derive(Clone, Copy)]
+pub(super) struct Weights {
+    pub rtol: f64,
+    pub abs: (f64, f64),
+}
+
+/// One pass over the trial's particles: the maxima behind the field scales and, with
+/// `weights`, their rates (written into `out` when given) and the sums of `(le/w)²`
+/// (without, the sums are 0 and `finite` true: the fields' scales only).
 pub(super) fn sweep<const D: usize>(
     before: &ViewNd<'_, D>,
     after: &ViewNd<'_, D>,
     dt: f64,
     pair: &Pairing<'_, D>,
-    rtol: f64,
-    (abs_v, abs_s): (f64, f64),
+    weights: Option<Weights>,
     mut out: Option<&mut History<D>>,
 ) -> Sweep {
     let inv_dt = 1.0 / dt;
@@ -131,42 +138,45 @@ pub(super) fn sweep<const D: usize>(
                 }
             },
         };
-        // The history entry of committed particle `q`, unless it was left out.
-        let h = pair
-            .history
-            .filter(|hist| match pair.before_ids {
-                None => true,
-                Some(ids) => hist.ids[q] == ids[q],
-            })
-            .map(|_| q);
         let (v0, v1) = (before.v[q], after.v[p]);
         let (s0, s1) = (before.sigma[q], after.sigma[p]);
-        let accel = (v1 - v0) * inv_dt;
-        let stress_rate = (s1 - s0) * inv_dt;
-        acc.finite &= (accel.norm_squared() + stress_rate.norm_squared()).is_finite();
-        if let Some(out) = out.as_deref_mut() {
-            out.accel[p] = accel;
-            out.stress_rate[p] = stress_rate;
-        }
-        let (d2v, d2s) = match (pair.history, h) {
-            (Some(hist), Some(h)) => {
-                let inv_span = 2.0 / (dt + hist.dt);
-                (
-                    (accel - hist.accel[h]) * inv_span,
-                    (stress_rate - hist.stress_rate[h]) * inv_span,
-                )
-            }
-            _ => {
-                let (a0, r0) = nodal_rates(before, q);
-                let (a1, r1) = nodal_rates(after, p);
-                ((a1 - a0) * inv_dt, (r1 - r0) * inv_dt)
-            }
-        };
         // Squares throughout: one square root per field and particle.
         let v_hat2 = v0.norm_squared().max(v1.norm_squared());
         let s_hat2 = s0.norm_squared().max(s1.norm_squared());
-        acc.sums[0] += term(d2v.norm_squared(), abs_v + rtol * v_hat2.sqrt());
-        acc.sums[1] += term(d2s.norm_squared(), abs_s + rtol * s_hat2.sqrt());
+        if let Some(Weights {
+            rtol,
+            abs: (abs_v, abs_s),
+        }) = weights
+        {
+            let accel = (v1 - v0) * inv_dt;
+            let stress_rate = (s1 - s0) * inv_dt;
+            acc.finite &= (accel.norm_squared() + stress_rate.norm_squared()).is_finite();
+            if let Some(out) = out.as_deref_mut() {
+                out.accel[p] = accel;
+                out.stress_rate[p] = stress_rate;
+            }
+            // The history of committed particle `q`, unless it was left out.
+            let hist = pair.history.filter(|hist| match pair.before_ids {
+                None => true,
+                Some(ids) => hist.ids[q] == ids[q],
+            });
+            let (d2v, d2s) = match hist {
+                Some(hist) => {
+                    let inv_span = 2.0 / (dt + hist.dt);
+                    (
+                        (accel - hist.accel[q]) * inv_span,
+                        (stress_rate - hist.stress_rate[q]) * inv_span,
+                    )
+                }
+                None => {
+                    let (a0, r0) = nodal_rates(before, q);
+                    let (a1, r1) = nodal_rates(after, p);
+                    ((a1 - a0) * inv_dt, (r1 - r0) * inv_dt)
+                }
+            };
+            acc.sums[0] += term(d2v.norm_squared(), abs_v + rtol * v_hat2.sqrt());
+            acc.sums[1] += term(d2s.norm_squared(), abs_s + rtol * s_hat2.sqrt());
+        }
         acc.count += 1;
         let m = &mut acc.maxima;
         m[0] = m[0].max(v_hat2);

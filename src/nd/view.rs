@@ -122,6 +122,12 @@ impl<const D: usize> ViewNd<'_, D> {
         self.node_mass.len()
     }
 
+    /// Current volume of particle `p`, `V_p = det(F_p) V⁰_p`.
+    #[inline]
+    pub fn volume(&self, p: usize) -> f64 {
+        super::det(&self.f[p]) * self.volume0[p]
+    }
+
     /// P-wave speed of particle `p`, `c_p = √((λ_t + 2μ_t)/ρ)`.
     pub fn p_wave_speed(&self, p: usize) -> f64 {
         ((self.lame_lambda[p] + 2.0 * self.lame_mu[p]) / self.density[p]).sqrt()

@@ -45,6 +45,7 @@
 use super::error::StabilityError;
 use super::operator::Eq56Operator;
 use lanczos::lanczos;
+pub(crate) use lanczos::top_ritz;
 
 mod lanczos;
 
@@ -435,8 +436,8 @@ pub(crate) fn checkerboard_with_noise(n: usize, parity: impl Fn(usize) -> u64) -
         .collect()
 }
 
-/// `aᵀ b`.
-pub(super) fn dot(a: &[f64], b: &[f64]) -> f64 {
+/// `aᵀ b` (also the d-dimensional Lanczos iteration's, [`crate::limits_nd`]).
+pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 

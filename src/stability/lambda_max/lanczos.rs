@@ -123,8 +123,9 @@ pub(super) fn lanczos<O: SymmetricOperator + ?Sized>(
 }
 
 /// Largest eigenpair of the symmetric tridiagonal matrix with diagonal `alpha` and
-/// off-diagonal `beta` (`beta.len() == alpha.len() − 1`).
-fn top_ritz(alpha: &[f64], beta: &[f64]) -> (f64, Vec<f64>) {
+/// off-diagonal `beta` (`beta.len() == alpha.len() − 1`); the Lanczos iterations of both
+/// the 1D tracker and the d-dimensional limit ([`crate::limits_nd`]) read it.
+pub(crate) fn top_ritz(alpha: &[f64], beta: &[f64]) -> (f64, Vec<f64>) {
     let k = alpha.len();
     let t = DMatrix::from_fn(k, k, |i, j| {
         if i == j {
