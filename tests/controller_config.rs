@@ -175,6 +175,8 @@ fn config() -> impl Strategy<Value = ControllerConfig> {
             0.0f64..1.0,
             0.0f64..1.0,
             prop::option::of(0.01f64..100.0),
+            prop::option::of(0u32..20),
+            0.0f64..0.99,
         ),
         (
             any::<bool>(),
@@ -207,6 +209,8 @@ fn config() -> impl Strategy<Value = ControllerConfig> {
                 atol_v: t.3,
                 atol_sigma: t.4,
                 balance: t.5,
+                max_deferred: t.6,
+                defer_below: t.7,
             },
             growth: GrowthConfig {
                 enabled: g.0,

@@ -117,3 +117,23 @@ fn balancing_loosens_the_tolerance_where_the_spatial_error_is_large() {
     })
     .is_err());
 }
+
+#[test]
+fn the_1d_limit_refuses_to_defer_its_checks() {
+    let s = MockStepper::standing_wave(32, 2, 1.0, 1e-2, Shape::Gimp, 0.0, 1);
+    let mut deferring = TemporalError::new(TemporalErrorConfig {
+        max_deferred: Some(4),
+        ..TemporalErrorConfig::default()
+    })
+    .unwrap();
+    let err = deferring
+        .propose(&s.view())
+        .expect_err("the 1D limit checks every trial");
+    assert!(err.to_string().contains("max_deferred"), "{err}");
+    let mut every = TemporalError::new(TemporalErrorConfig {
+        max_deferred: Some(0),
+        ..TemporalErrorConfig::default()
+    })
+    .unwrap();
+    assert!(every.propose(&s.view()).is_ok());
+}

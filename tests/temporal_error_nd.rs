@@ -21,6 +21,14 @@ fn plane_wave() -> (SolverNd<2>, ScenarioNd) {
     (solver, scenario)
 }
 
+/// Settings that check every trial (no deferral).
+fn every_trial() -> mpm_dt::controller::TemporalErrorConfig {
+    mpm_dt::controller::TemporalErrorConfig {
+        max_deferred: Some(0),
+        ..Default::default()
+    }
+}
+
 /// `dsm` of a trial of step `dt` from the solver's committed state (not accepted).
 fn dsm_of(limit: &mut TemporalErrorNd<2>, s: &mut SolverNd<2>, dt: f64) -> f64 {
     s.try_step(dt).expect("trial");
@@ -35,7 +43,7 @@ fn dsm_of(limit: &mut TemporalErrorNd<2>, s: &mut SolverNd<2>, dt: f64) -> f64 {
 #[test]
 fn dsm_is_second_order_in_the_step_on_a_plane_wave() {
     let (mut s, _) = plane_wave();
-    let mut limit = TemporalErrorNd::<2>::new(Default::default());
+    let mut limit = TemporalErrorNd::<2>::new(every_trial());
     // h/c_p = 0.0625/1.16: steps of 0.01 are well inside the stability limit.
     let dt0 = 0.01;
     for _ in 0..5 {
@@ -65,7 +73,7 @@ fn a_rigid_translation_has_no_temporal_error() {
     let v = vec![Vector::<2>::new(0.3, -0.2); n];
     let sigma = vec![mpm_dt::nd::Tensor::<2>::zeros(); n];
     s.set_velocity_and_stress(&v, &sigma).expect("state set");
-    let mut limit = TemporalErrorNd::<2>::new(Default::default());
+    let mut limit = TemporalErrorNd::<2>::new(every_trial());
     for step in 0..3 {
         s.try_step(0.01).expect("trial");
         let (before, after) = (s.view(), s.trial_view().expect("trial view"));
@@ -135,7 +143,9 @@ fn balancing_is_reported_as_an_error_in_2d() {
 #[test]
 fn a_non_finite_trial_is_rejected() {
     let (mut s, _) = plane_wave();
-    let mut limit = TemporalErrorNd::<2>::new(Default::default());
+    // Every trial checked: a deferred check reads nothing, and leaves non-finite values to
+    // the controller's own scan (`deferred_checks_resume_and_see_the_steps_between`).
+    let mut limit = TemporalErrorNd::<2>::new(every_trial());
     // On the first step (the nodal-rate form, which does not read the trial's velocity)
     // and on a later one (the history form).
     for step in 0..2 {
@@ -191,4 +201,76 @@ fn invalid_tolerances_end_the_run_before_a_trial() {
     let mut limit = TemporalErrorNd::<2>::new(config);
     let err = limit.propose(&s.view()).expect_err("a negative rtol");
     assert!(err.to_string().contains("rtol"), "{err}");
+}
+
+#[test]
+fn deferred_checks_resume_and_see_the_steps_between() {
+    // One trajectory at a fixed step, judged by a deferring limit (the default) and by one
+    // that checks every trial.
+    let (mut s, _) = plane_wave();
+    let mut deferring = TemporalErrorNd::<2>::new(Default::default());
+    let mut every = TemporalErrorNd::<2>::new(every_trial());
+    let dt = 0.01;
+    let mut measured = Vec::new();
+    for step in 0..40 {
+        s.try_step(dt).expect("trial");
+        let (before, after) = (s.view(), s.trial_view().expect("trial view"));
+        let all = every.judge(&before, &after, dt).expect("judged");
+        let some = deferring.judge(&before, &after, dt).expect("judged");
+        every.accepted(&before, &after, dt);
+        deferring.accepted(&before, &after, dt);
+        let reference = all.metrics[metric::DSM];
+        assert!(
+            reference < 0.1,
+            "step {step}: dsm {reference} (a deferrable wave)"
+        );
+        match some.metrics.get(metric::DSM) {
+            Some(&dsm) => {
+                // After deferred steps the second derivative spans them, centred half the
+                // span earlier (up to 4.5 steps, 0.07 of the wave's period): on this wave
+                // it differs from the every-step one by 1–10 %.
+                let rel = (dsm - reference).abs() / reference;
+                assert!(rel < 0.2, "step {step}: {dsm} against {reference}");
+                measured.push(step);
+            }
+            None => {
+                let predicted = some.metrics["dsm_predicted"];
+                assert!(predicted <= 0.1, "step {step}: deferred at {predicted}");
+            }
+        }
+        s.accept().expect("accept");
+    }
+    // The deferrals after each check double up to 8: 1, 2, 4, 8, 8, 8.
+    assert_eq!(measured, vec![0, 2, 5, 10, 19, 28, 37]);
+}
+
+#[test]
+fn a_rejection_or_a_larger_step_ends_a_deferral() {
+    let (mut s, _) = plane_wave();
+    let mut limit = TemporalErrorNd::<2>::new(Default::default());
+    let dt = 0.01;
+    let judge = |limit: &mut TemporalErrorNd<2>, s: &mut SolverNd<2>, dt: f64| {
+        s.try_step(dt).expect("trial");
+        let j = limit
+            .judge(&s.view(), &s.trial_view().expect("trial view"), dt)
+            .expect("judged");
+        j.metrics.get(metric::DSM).copied()
+    };
+    // Checked, accepted: the next trial of the same step is deferred.
+    judge(&mut limit, &mut s, dt).expect("the first trial is checked");
+    limit.accepted(&s.view(), &s.trial_view().expect("trial view"), dt);
+    s.accept().expect("accept");
+    assert!(judge(&mut limit, &mut s, dt).is_none(), "not deferred");
+    // Rejected by another limit: the retry is checked.
+    s.reject();
+    limit.rejected(dt, mpm_dt::limit::RejectCause::Growth);
+    let retry = judge(&mut limit, &mut s, dt).expect("deferred after a rejection");
+    limit.accepted(&s.view(), &s.trial_view().expect("trial view"), dt);
+    s.accept().expect("accept");
+    // A step whose predicted dsm, `dsm·(dt'/dt)²`, is above the threshold is checked.
+    let big = dt * (0.2 / retry).sqrt();
+    assert!(
+        judge(&mut limit, &mut s, big).is_some(),
+        "deferred at {big}"
+    );
 }

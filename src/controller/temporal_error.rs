@@ -81,6 +81,14 @@ pub struct TemporalErrorConfig {
     /// the spatial one where that is larger than the plain tolerance (Steffen, Kirby &
     /// Berzins 2010: a temporal error far below the spatial one buys nothing).
     pub balance: Option<f64>,
+    /// Trials in a row whose check may be deferred while the error is far below its
+    /// tolerance (default `None`: the dimension's default, 8 in 2D/3D, 0 in 1D). 2D/3D only
+    /// ([`crate::limits_nd::TemporalErrorNd`], module docs); the 1D limit checks every trial
+    /// and reports a positive value as an error. `Some(0)` checks every trial.
+    pub max_deferred: Option<u32>,
+    /// Deferral threshold θ (default 0.1): a check is deferred only while the last measured
+    /// `dsm`, scaled by `(dt/dt_measured)²`, is at most θ.
+    pub defer_below: f64,
 }
 
 impl Default for TemporalErrorConfig {
@@ -92,6 +100,8 @@ impl Default for TemporalErrorConfig {
             atol_v: 0.0,
             atol_sigma: 0.0,
             balance: None,
+            max_deferred: None,
+            defer_below: 0.1,
         }
     }
 }
@@ -115,6 +125,12 @@ impl TemporalErrorConfig {
                 "finite and > 0",
             )?;
         }
+        check(
+            "temporal.defer_below",
+            self.defer_below,
+            (0.0..1.0).contains(&self.defer_below),
+            "in [0, 1)",
+        )?;
         check(
             "temporal.rtol",
             self.rtol,
@@ -373,9 +389,15 @@ impl StepLimit for TemporalError {
         TEMPORAL_ERROR
     }
 
-    /// No opinion (`∞`): the controller's filter proposes the accuracy-limited step.
+    /// No opinion (`∞`): the controller's filter proposes the accuracy-limited step. A
+    /// deferral it does not make (`max_deferred > 0`) ends the run here, before a trial.
     fn propose(&mut self, _state: &View<'_>) -> Result<Proposal, LimitError> {
-        Ok(Proposal::no_opinion())
+        match self.config.max_deferred {
+            Some(k) if k > 0 => Err(Self::other(format!(
+                "temporal.max_deferred = {k}: the 1D limit checks every trial (0 or unset)"
+            ))),
+            _ => Ok(Proposal::no_opinion()),
+        }
     }
 
     fn judge(

@@ -37,6 +37,31 @@
 //! a stricter test — and saves the second pass over the particles that the scale, known
 //! only after the first, would otherwise need.
 //!
+//! **Deferred checks.** At a stable step the temporal error is usually far below its
+//! tolerance — the paper (its introduction and the close of Section 3, after Steffen et
+//! al. \[12\]) notes that spatial errors dominate at stable steps — and the sweep over every particle then costs about a tenth of a
+//! 2D step while never binding (`dsm` ≈ 0.002 on the 10⁵-particle GIMP wave, at most 0.12
+//! on the colliding disks). So after a checked, accepted step with `dsm ≤ θ`
+//! ([`TemporalErrorConfig::defer_below`], 0.1) the next trials' checks are deferred, as the
+//! stability limit defers its Lanczos runs: 1 after the first such step, then 2, 4, … up to
+//! [`TemporalErrorConfig::max_deferred`] (8), each only while the prediction
+//! `dsm·(dt/dt_checked)²` (the local error is second order in the step) stays at most θ.
+//! A check with `dsm > θ`, and any rejection, ends the deferral: the next trial is checked.
+//! A deferred trial is accepted by this limit without reading the particles (its judgement
+//! carries `dsm_predicted`, no `dsm`, and the filter keeps its history); the history stays,
+//! and the next check spans the deferred steps: with `gap` their total length,
+//!
+//! ```text
+//! d²u_p/dt² ≈ 2 (r_p − r_p^{prev}) / (dt + dt₋ + 2·gap)     (the rates' midpoints apart)
+//! ```
+//!
+//! which is the every-step form when `gap = 0`. What this gives up: the error of a deferred
+//! step is not measured, so a second derivative that jumps by more than `1/θ` within the
+//! deferral (an impact starting mid-way) is seen at the next check, up to `max_deferred`
+//! steps late, and not rejected before. Non-finite values in a trial are still caught on
+//! every step by the controller's own scan. `max_deferred: 0` checks every trial, as the
+//! paper's controller does and as the 1D limit always does.
+//!
 //! **Runs over several processes.** Each process judges *its own* particles: its `dsm` is
 //! the norm over them with its own field scales, and the controller rejects the step when
 //! any process rejects it and takes the smallest filter proposal of all
@@ -59,11 +84,14 @@
 //! **Not carried over:** the balancing of eq 44's spatial error (`balance`), whose
 //! estimators are 1D; a configured `balance` is reported as an error, not ignored.
 
-use super::temporal_sweep::{sweep, History, Pairing, Weights, LEFT_OUT, NONE};
+use super::temporal_sweep::{sweep, Deferral, History, Pairing, Weights, LEFT_OUT, NONE};
 use crate::controller::{metric, TemporalErrorConfig, TEMPORAL_ERROR};
 use crate::dimension::{Dim, Dimension};
 use crate::limit::{Judgement, LimitError, Metrics, Proposal, RejectCause, StepLimit, Verdict};
 use crate::nd::{Tensor, Vector, ViewNd};
+
+/// Checks deferred in a row at most when [`TemporalErrorConfig::max_deferred`] is unset.
+pub const DEFAULT_MAX_DEFERRED: u32 = 8;
 
 /// Relative growth of a field scale over the previous step's below which the weights keep
 /// the previous scale (one pass over the particles instead of two).
@@ -92,6 +120,8 @@ pub struct TemporalErrorNd<const D: usize> {
     spare: Option<History<D>>,
     /// Run-wide id → committed index (grid-decomposed runs, steps where particles moved).
     slot_before: Vec<u32>,
+    /// The last judged trial `(t, dt)` when its check was deferred.
+    deferred: Option<(f64, f64)>,
 }
 
 impl<const D: usize> TemporalErrorNd<D> {
@@ -104,6 +134,39 @@ impl<const D: usize> TemporalErrorNd<D> {
             judged: None,
             spare: None,
             slot_before: Vec::new(),
+            deferred: None,
+        }
+    }
+
+    /// Checks deferred in a row at most.
+    fn max_deferred(&self) -> u32 {
+        self.config.max_deferred.unwrap_or(DEFAULT_MAX_DEFERRED)
+    }
+
+    /// `dsm` of a trial of step `dt` predicted from the history's measured one, when this
+    /// trial's check is deferred (module docs): a check is left, and the prediction is at
+    /// most the threshold.
+    fn deferrable(&self, dt: f64) -> Option<f64> {
+        let h = self.history.as_ref()?;
+        let predicted = h.defer.dsm * (dt / h.dt).powi(2);
+        (h.defer.left > 0 && predicted <= self.config.defer_below).then_some(predicted)
+    }
+
+    /// The schedule after a measured step with `dsm`, following a history with `previous`:
+    /// the interval doubles (0, 1, 2, 4, … up to `max_deferred`) while `dsm ≤ θ`, and drops
+    /// to 0 (check every trial) otherwise.
+    fn schedule(&self, previous: Option<Deferral>, dsm: f64) -> Deferral {
+        let interval = if dsm <= self.config.defer_below {
+            previous
+                .map_or(1, |d| (2 * d.interval).max(1))
+                .min(self.max_deferred())
+        } else {
+            0
+        };
+        Deferral {
+            dsm,
+            interval,
+            left: interval,
         }
     }
 
@@ -298,6 +361,17 @@ where
         after: &ViewNd<'_, D>,
         dt: f64,
     ) -> Result<Judgement, LimitError> {
+        self.deferred = None;
+        if let Some(predicted) = self.deferrable(dt) {
+            self.supported()?;
+            self.deferred = Some((before.t, dt));
+            let mut metrics = Metrics::new();
+            metrics.insert("dsm_predicted".to_string(), predicted);
+            return Ok(Judgement {
+                verdict: Verdict::Accept,
+                metrics,
+            });
+        }
         let mut rates = self.take_buffer();
         let e = match self.estimate(before, after, dt, &mut rates) {
             Ok(e) => e,
@@ -306,6 +380,7 @@ where
                 return Err(err);
             }
         };
+        rates.defer.dsm = e.dsm;
         if let Some((_, old)) = self.judged.replace((before.t, rates)) {
             self.spare = Some(old);
         }
@@ -330,6 +405,17 @@ where
     }
 
     fn accepted(&mut self, before: &ViewNd<'_, D>, after: &ViewNd<'_, D>, dt: f64) {
+        // A deferred trial: the history stays, one step further back.
+        let this = |(t, step): (f64, f64)| {
+            t.to_bits() == before.t.to_bits() && step.to_bits() == dt.to_bits()
+        };
+        if self.deferred.take().is_some_and(this) {
+            if let Some(h) = self.history.as_mut() {
+                h.gap += dt;
+                h.defer.left -= 1;
+            }
+            return;
+        }
         // The judged trial's rates when it is this one, else recomputed.
         let new = match self.judged.take() {
             Some((t, h)) if t.to_bits() == before.t.to_bits() && h.dt.to_bits() == dt.to_bits() => {
@@ -341,7 +427,10 @@ where
                     None => self.take_buffer(),
                 };
                 match self.estimate(before, after, dt, &mut h) {
-                    Ok(_) => Some(h),
+                    Ok(e) => {
+                        h.defer.dsm = e.dsm;
+                        Some(h)
+                    }
                     Err(_) => {
                         self.spare = Some(h);
                         None
@@ -352,7 +441,11 @@ where
         // Without this step's rates the old history would be two steps old: dropped, so
         // that the next estimate takes the first-step form.
         let old = match new {
-            Some(h) => self.history.replace(h),
+            Some(mut h) => {
+                h.gap = 0.0;
+                h.defer = self.schedule(self.history.as_ref().map(|o| o.defer), h.defer.dsm);
+                self.history.replace(h)
+            }
             None => self.history.take(),
         };
         if let Some(old) = old {
@@ -360,9 +453,15 @@ where
         }
     }
 
+    /// Any rejection ends a deferral: the next trial is checked.
     fn rejected(&mut self, _dt: f64, _cause: RejectCause) {
         if let Some((_, h)) = self.judged.take() {
             self.spare = Some(h);
+        }
+        self.deferred = None;
+        if let Some(h) = self.history.as_mut() {
+            h.defer.interval = 0;
+            h.defer.left = 0;
         }
     }
 

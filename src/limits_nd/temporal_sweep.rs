@@ -26,6 +26,25 @@ pub(super) struct History<const D: usize> {
     pub v_scale: f64,
     /// `‖σ‖_∞` of the step.
     pub sigma_scale: f64,
+    /// Time from the end of this step to the start of the next trial: the deferred steps
+    /// accepted since (0 when the next trial follows this step).
+    #[serde(default)]
+    pub gap: f64,
+    /// The deferral schedule after this step.
+    #[serde(default)]
+    pub defer: Deferral,
+}
+
+/// How many of the trials after a measured step skip their check (module docs of
+/// [`super::TemporalErrorNd`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub(super) struct Deferral {
+    /// The measured `dsm` of the step.
+    pub dsm: f64,
+    /// Checks deferred after it (0, 1, 2, 4, … up to `max_deferred`).
+    pub interval: u32,
+    /// Of those, the ones still to come.
+    pub left: u32,
 }
 
 /// How trial particles find their committed state and their history.
@@ -45,12 +64,15 @@ pub(super) struct Pairing<'h, const D: usize> {
 
 impl<const D: usize> History<D> {
     /// The arrays belong together: one rate pair per particle, ids for all or none, a
-    /// positive finite step (what a restored state must satisfy before it is indexed).
+    /// positive finite step, a finite non-negative gap (what a restored state must satisfy
+    /// before it is indexed).
     pub fn consistent(&self) -> bool {
         self.accel.len() == self.stress_rate.len()
             && (self.ids.is_empty() || self.ids.len() == self.accel.len())
             && self.dt.is_finite()
             && self.dt > 0.0
+            && self.gap.is_finite()
+            && self.gap >= 0.0
     }
 }
 
@@ -162,7 +184,8 @@ pub(super) fn sweep<const D: usize>(
             });
             let (d2v, d2s) = match hist {
                 Some(hist) => {
-                    let inv_span = 2.0 / (dt + hist.dt);
+                    // The rates sit at the midpoints of their steps, `gap` apart.
+                    let inv_span = 2.0 / (dt + hist.dt + 2.0 * hist.gap);
                     (
                         (accel - hist.accel[q]) * inv_span,
                         (stress_rate - hist.stress_rate[q]) * inv_span,
