@@ -42,6 +42,14 @@ fn invalid_values_name_their_field() {
         ),
         (r#"{"temporal": {"rtol": -1.0}}"#, "temporal.rtol"),
         (r#"{"temporal": {"balance": 0.0}}"#, "temporal.balance"),
+        (
+            r#"{"temporal": {"defer_below": 1.0}}"#,
+            "temporal.defer_below",
+        ),
+        (
+            r#"{"temporal": {"defer_below": -0.1}}"#,
+            "temporal.defer_below",
+        ),
         (r#"{"growth": {"factor": 1.0}}"#, "growth.factor"),
         (r#"{"growth": {"windows": 1}}"#, "growth.windows"),
         (

@@ -144,7 +144,7 @@ fn balancing_is_reported_as_an_error_in_2d() {
 fn a_non_finite_trial_is_rejected() {
     let (mut s, _) = plane_wave();
     // Every trial checked: a deferred check reads nothing, and leaves non-finite values to
-    // the controller's own scan (`deferred_checks_resume_and_see_the_steps_between`).
+    // the controller's own scan of each trial.
     let mut limit = TemporalErrorNd::<2>::new(every_trial());
     // On the first step (the nodal-rate form, which does not read the trial's velocity)
     // and on a later one (the history form).
@@ -245,7 +245,7 @@ fn deferred_checks_resume_and_see_the_steps_between() {
 }
 
 #[test]
-fn a_rejection_or_a_larger_step_ends_a_deferral() {
+fn a_rejection_ends_a_deferral_and_a_larger_step_is_checked() {
     let (mut s, _) = plane_wave();
     let mut limit = TemporalErrorNd::<2>::new(Default::default());
     let dt = 0.01;
@@ -267,8 +267,29 @@ fn a_rejection_or_a_larger_step_ends_a_deferral() {
     let retry = judge(&mut limit, &mut s, dt).expect("deferred after a rejection");
     limit.accepted(&s.view(), &s.trial_view().expect("trial view"), dt);
     s.accept().expect("accept");
+    // The schedule starts again at one deferred trial.
+    assert!(
+        judge(&mut limit, &mut s, dt).is_none(),
+        "not deferred after the retry"
+    );
+    limit.accepted(&s.view(), &s.trial_view().expect("trial view"), dt);
+    s.accept().expect("accept");
+    let again = judge(&mut limit, &mut s, dt).expect("a second deferral");
+    limit.accepted(&s.view(), &s.trial_view().expect("trial view"), dt);
+    s.accept().expect("accept");
+    // A restored limit that checks every trial defers nothing, whatever the saved schedule.
+    let saved = limit.save_state().expect("a history");
+    assert!(saved["defer"]["left"].as_u64() > Some(0), "{saved}");
+    let mut every = TemporalErrorNd::<2>::new(every_trial());
+    every.restore_state(&saved).expect("restored");
+    assert!(
+        judge(&mut every, &mut s, dt).is_some(),
+        "deferred with max_deferred 0"
+    );
+    s.reject();
+    every.rejected(dt, mpm_dt::limit::RejectCause::Growth);
     // A step whose predicted dsm, `dsm·(dt'/dt)²`, is above the threshold is checked.
-    let big = dt * (0.2 / retry).sqrt();
+    let big = dt * (0.2 / again.min(retry)).sqrt();
     assert!(
         judge(&mut limit, &mut s, big).is_some(),
         "deferred at {big}"
