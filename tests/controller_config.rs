@@ -183,7 +183,7 @@ fn config() -> impl Strategy<Value = ControllerConfig> {
             0.0f64..1.0,
             0.0f64..1.0,
             prop::option::of(0.01f64..100.0),
-            prop::option::of(0u32..20),
+            0u32..20,
             0.0f64..0.99,
         ),
         (

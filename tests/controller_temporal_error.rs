@@ -4,7 +4,7 @@
 mod common;
 
 use common::MockStepper;
-use mpm_dt::controller::{TemporalError, TemporalErrorConfig};
+use mpm_dt::controller::{metric, TemporalError, TemporalErrorConfig};
 use mpm_dt::limit::StepLimit;
 use mpm_dt::{Shape, Stepper};
 
@@ -37,7 +37,12 @@ fn dsm_is_second_order_in_dt_first_step_and_history() {
     let mut later = Vec::new();
     for &dt in &dts {
         let mut s = MockStepper::standing_wave(32, 2, 1.0, 1e-2, Shape::Gimp, 0.0, 1);
-        let mut l = TemporalError::new(TemporalErrorConfig::default()).unwrap();
+        // Every trial checked (no deferral): each judgement carries its `dsm`.
+        let mut l = TemporalError::new(TemporalErrorConfig {
+            max_deferred: 0,
+            ..TemporalErrorConfig::default()
+        })
+        .unwrap();
         first.push(judge_metrics(&mut s, &mut l, dt).0);
         s.try_step(dt).unwrap();
         l.accepted(&s.view(), &s.trial_view().unwrap(), dt);
@@ -56,6 +61,7 @@ fn second_derivative_matches_the_standing_wave() {
     // w_p = atol_rel‖v‖∞ + rtol|v_p| the expected dsm_v follows in closed form.
     let (a, dt) = (1e-2, 1e-3);
     let cfg = TemporalErrorConfig {
+        max_deferred: 0,
         rtol: 0.1,
         atol_rel: 0.1,
         ..TemporalErrorConfig::default()
@@ -92,6 +98,7 @@ fn balancing_loosens_the_tolerance_where_the_spatial_error_is_large() {
     let dt = 0.02;
     let dsm_for = |balance: Option<f64>| {
         let cfg = TemporalErrorConfig {
+            max_deferred: 0,
             rtol: 1e-5,
             atol_rel: 1e-5,
             balance,
@@ -119,21 +126,55 @@ fn balancing_loosens_the_tolerance_where_the_spatial_error_is_large() {
 }
 
 #[test]
-fn the_1d_limit_refuses_to_defer_its_checks() {
-    let s = MockStepper::standing_wave(32, 2, 1.0, 1e-2, Shape::Gimp, 0.0, 1);
-    let mut deferring = TemporalError::new(TemporalErrorConfig {
-        max_deferred: Some(4),
-        ..TemporalErrorConfig::default()
-    })
-    .unwrap();
-    let err = deferring
-        .propose(&s.view())
-        .expect_err("the 1D limit checks every trial");
-    assert!(err.to_string().contains("max_deferred"), "{err}");
+fn deferred_checks_in_1d_resume_and_see_the_steps_between() {
+    // One trajectory at a fixed step, judged by a deferring limit (the default) and by one
+    // that checks every trial.
+    let mut s = MockStepper::standing_wave(32, 2, 1.0, 1e-2, Shape::Gimp, 0.0, 1);
+    let mut deferring = TemporalError::new(TemporalErrorConfig::default()).unwrap();
     let mut every = TemporalError::new(TemporalErrorConfig {
-        max_deferred: Some(0),
+        max_deferred: 0,
         ..TemporalErrorConfig::default()
     })
     .unwrap();
-    assert!(every.propose(&s.view()).is_ok());
+    let dt = 2e-3;
+    let mut checked = Vec::new();
+    for step in 0..40 {
+        s.try_step(dt).unwrap();
+        let (before, after) = (s.view(), s.trial_view().unwrap());
+        let all = every.judge(&before, &after, dt).unwrap();
+        let some = deferring.judge(&before, &after, dt).unwrap();
+        every.accepted(&before, &after, dt);
+        deferring.accepted(&before, &after, dt);
+        let reference = all.metrics[metric::DSM];
+        assert!(reference < 0.1, "step {step}: dsm {reference}");
+        match some.metrics.get(metric::DSM) {
+            Some(&dsm) => {
+                // The span of the deferred steps is centred up to 4.5 steps earlier.
+                let rel = (dsm - reference).abs() / reference;
+                assert!(rel < 0.2, "step {step}: {dsm} against {reference}");
+                checked.push(step);
+            }
+            None => assert!(some.metrics["dsm_predicted"] <= 0.1, "step {step}"),
+        }
+        s.accept().unwrap();
+    }
+    assert_eq!(checked, vec![0, 2, 5, 10, 19, 28, 37]);
+    // A rejection ends the deferral: the retry is checked.
+    s.try_step(dt).unwrap();
+    let (before, after) = (s.view(), s.trial_view().unwrap());
+    assert!(deferring
+        .judge(&before, &after, dt)
+        .unwrap()
+        .metrics
+        .contains_key("dsm_predicted"));
+    s.reject();
+    deferring.rejected(dt, mpm_dt::limit::RejectCause::Growth);
+    s.try_step(dt).unwrap();
+    let (before, after) = (s.view(), s.trial_view().unwrap());
+    let retry = deferring.judge(&before, &after, dt).unwrap();
+    assert!(
+        retry.metrics.contains_key(metric::DSM),
+        "{:?}",
+        retry.metrics
+    );
 }

@@ -24,7 +24,7 @@ fn plane_wave() -> (SolverNd<2>, ScenarioNd) {
 /// Settings that check every trial (no deferral).
 fn every_trial() -> mpm_dt::controller::TemporalErrorConfig {
     mpm_dt::controller::TemporalErrorConfig {
-        max_deferred: Some(0),
+        max_deferred: 0,
         ..Default::default()
     }
 }

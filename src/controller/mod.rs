@@ -44,6 +44,7 @@ mod attempt;
 mod checkpoint;
 mod config;
 mod decision;
+pub mod deferral;
 mod error;
 mod filter;
 mod growth;

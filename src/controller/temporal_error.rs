@@ -36,6 +36,11 @@
 //! weight is never zero at a zero crossing of one particle. `dsm ≤ 1` accepts; the
 //! controller's filter turns `dsm` into the next step.
 //!
+//! **Deferred checks** ([`super::deferral`]): while `dsm` stays far below the tolerance
+//! (≤ 0.1) the checks of the next trials are deferred (1, 2, 4, up to 8 trials), and the
+//! next check's second derivative spans the deferred steps
+//! (`span = (dt + dt₋)/2 + gap`). `max_deferred: 0` checks every trial.
+//!
 //! Interpretations, documented here because the paper leaves them open:
 //! * Eq 26 (`F`) is not measured separately: for the elastic laws `σ` is a function of
 //!   `F`, so its error is already in `le_σ`.
@@ -53,6 +58,7 @@
 
 use super::config::{check, ConfigError};
 use super::decision::metric;
+use super::deferral::{Deferral, DEFAULT_MAX_DEFERRED};
 use super::temporal_kernels::{dispatch_rates, dispatch_sums, Fields, Terms};
 use crate::limit::{Judgement, LimitError, Metrics, Proposal, RejectCause, StepLimit, Verdict};
 use crate::stepper::View;
@@ -82,10 +88,9 @@ pub struct TemporalErrorConfig {
     /// Berzins 2010: a temporal error far below the spatial one buys nothing).
     pub balance: Option<f64>,
     /// Trials in a row whose check may be deferred while the error is far below its
-    /// tolerance (default `None`: the dimension's default, 8 in 2D/3D, 0 in 1D). 2D/3D only
-    /// ([`crate::limits_nd::TemporalErrorNd`], module docs); the 1D limit checks every trial
-    /// and reports a positive value as an error. `Some(0)` checks every trial.
-    pub max_deferred: Option<u32>,
+    /// tolerance (default 8; [`super::deferral`]). 0 checks every trial, as the paper's
+    /// controller does.
+    pub max_deferred: u32,
     /// Deferral threshold θ (default 0.1): a check is deferred only while the last measured
     /// `dsm`, scaled by `(dt/dt_measured)²`, is at most θ.
     pub defer_below: f64,
@@ -100,7 +105,7 @@ impl Default for TemporalErrorConfig {
             atol_v: 0.0,
             atol_sigma: 0.0,
             balance: None,
-            max_deferred: None,
+            max_deferred: DEFAULT_MAX_DEFERRED,
             defer_below: 0.1,
         }
     }
@@ -148,6 +153,13 @@ struct History {
     stress_rate: Vec<f64>,
     v_scale: f64,
     sigma_scale: f64,
+    /// Time from the end of this step to the start of the next trial: the deferred steps
+    /// accepted since ([`super::deferral`]; 0 when the next trial follows this step).
+    #[serde(default)]
+    gap: f64,
+    /// The deferral schedule after this step.
+    #[serde(default)]
+    defer: Deferral,
 }
 
 impl History {
@@ -159,6 +171,8 @@ impl History {
             stress_rate: Vec::new(),
             v_scale: 0.0,
             sigma_scale: 0.0,
+            gap: 0.0,
+            defer: Deferral::default(),
         }
     }
 }
@@ -178,6 +192,8 @@ pub struct TemporalError {
     judged: Option<(f64, f64, History)>,
     /// A history no longer needed, whose arrays the next estimate overwrites.
     spare: Option<History>,
+    /// The last judged trial `(t, dt)` when its check was deferred.
+    deferred: Option<(f64, f64)>,
 }
 
 /// The name of the limit in logs and statistics.
@@ -192,6 +208,7 @@ impl TemporalError {
             history: None,
             judged: None,
             spare: None,
+            deferred: None,
         })
     }
 
@@ -330,7 +347,8 @@ impl TemporalError {
                 &h.accel,
                 stress_rate,
                 &h.stress_rate,
-                0.5 * (dt + h.dt),
+                // The rates sit at the midpoints of their steps, `gap` apart.
+                0.5 * (dt + h.dt) + h.gap,
             ),
             _ => {
                 nodal = (Self::nodal_rates(before)?, Self::nodal_rates(after)?);
@@ -389,15 +407,9 @@ impl StepLimit for TemporalError {
         TEMPORAL_ERROR
     }
 
-    /// No opinion (`∞`): the controller's filter proposes the accuracy-limited step. A
-    /// deferral it does not make (`max_deferred > 0`) ends the run here, before a trial.
+    /// No opinion (`∞`): the controller's filter proposes the accuracy-limited step.
     fn propose(&mut self, _state: &View<'_>) -> Result<Proposal, LimitError> {
-        match self.config.max_deferred {
-            Some(k) if k > 0 => Err(Self::other(format!(
-                "temporal.max_deferred = {k}: the 1D limit checks every trial (0 or unset)"
-            ))),
-            _ => Ok(Proposal::no_opinion()),
-        }
+        Ok(Proposal::no_opinion())
     }
 
     fn judge(
@@ -406,6 +418,22 @@ impl StepLimit for TemporalError {
         after: &View<'_>,
         dt: f64,
     ) -> Result<Judgement, LimitError> {
+        self.deferred = None;
+        let c = &self.config;
+        let deferrable = self.history.as_ref().and_then(|h| {
+            h.defer
+                .predict(h.dt, dt, c.defer_below, c.max_deferred)
+                .filter(|_| h.accel.len() == after.n_particles())
+        });
+        if let Some(predicted) = deferrable {
+            self.deferred = Some((before.t, dt));
+            let mut metrics = Metrics::new();
+            metrics.insert("dsm_predicted".to_string(), predicted);
+            return Ok(Judgement {
+                verdict: Verdict::Accept,
+                metrics,
+            });
+        }
         let mut rates = self.take_buffer();
         let (dsm, dsm_v, dsm_s) = match self.estimate(before, after, dt, &mut rates) {
             Ok(e) => e,
@@ -414,6 +442,7 @@ impl StepLimit for TemporalError {
                 return Err(e);
             }
         };
+        rates.defer.dsm = dsm;
         if let Some((_, _, old)) = self.judged.replace((before.t, dt, rates)) {
             self.recycle(old);
         }
@@ -438,6 +467,17 @@ impl StepLimit for TemporalError {
     }
 
     fn accepted(&mut self, before: &View<'_>, after: &View<'_>, dt: f64) {
+        // A deferred trial: the history stays, one step further back.
+        let this = |(t, step): (f64, f64)| {
+            t.to_bits() == before.t.to_bits() && step.to_bits() == dt.to_bits()
+        };
+        if self.deferred.take().is_some_and(this) {
+            if let Some(h) = self.history.as_mut() {
+                h.gap += dt;
+                h.defer.spend();
+            }
+            return;
+        }
         // Reuse the rates of the judged trial when it is this one (same start time and
         // step); otherwise recompute them. The replaced history's arrays are kept for the
         // next estimate.
@@ -451,7 +491,10 @@ impl StepLimit for TemporalError {
                 }
                 let mut h = self.take_buffer();
                 match self.estimate(before, after, dt, &mut h) {
-                    Ok(_) => Some(h),
+                    Ok((dsm, _, _)) => {
+                        h.defer.dsm = dsm;
+                        Some(h)
+                    }
                     Err(_) => {
                         self.recycle(h);
                         None
@@ -459,16 +502,25 @@ impl StepLimit for TemporalError {
                 }
             }
         };
-        if let Some(h) = new {
+        if let Some(mut h) = new {
+            let c = &self.config;
+            let previous = self.history.as_ref().map(|o| o.defer);
+            h.gap = 0.0;
+            h.defer = Deferral::after_check(previous, h.defer.dsm, c.defer_below, c.max_deferred);
             if let Some(old) = self.history.replace(h) {
                 self.recycle(old);
             }
         }
     }
 
+    /// Any rejection ends a deferral ([`super::deferral`]): the next trial is checked.
     fn rejected(&mut self, _dt: f64, _cause: RejectCause) {
         if let Some((_, _, h)) = self.judged.take() {
             self.recycle(h);
+        }
+        self.deferred = None;
+        if let Some(h) = self.history.as_mut() {
+            h.defer.reset();
         }
     }
 
@@ -477,8 +529,21 @@ impl StepLimit for TemporalError {
     }
 
     fn restore_state(&mut self, state: &serde_json::Value) -> Result<(), LimitError> {
-        self.history = serde_json::from_value(state.clone())
+        let history: Option<History> = serde_json::from_value(state.clone())
             .map_err(|e| Self::other(format!("cannot restore state: {e}")))?;
+        if history
+            .as_ref()
+            .is_some_and(|h| !(h.gap.is_finite() && h.gap >= 0.0))
+        {
+            return Err(Self::other(
+                "cannot restore state: the gap is not a finite non-negative time".to_string(),
+            ));
+        }
+        // A schedule saved under a larger `max_deferred` defers no more than this one.
+        self.history = history.map(|mut h| {
+            h.defer.clamp(self.config.max_deferred);
+            h
+        });
         Ok(())
     }
 }

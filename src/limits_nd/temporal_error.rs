@@ -37,39 +37,10 @@
 //! a stricter test — and saves the second pass over the particles that the scale, known
 //! only after the first, would otherwise need.
 //!
-//! **Deferred checks.** At a stable step the temporal error is usually far below its
-//! tolerance — the paper (its introduction and the close of Section 3, after Steffen et
-//! al. \[12\]) notes that spatial errors dominate at stable steps — and the sweep over every particle then costs about a tenth of a
-//! 2D step while never binding (`dsm` ≈ 0.002 on the 10⁵-particle GIMP wave, at most 0.12
-//! on the colliding disks). So after a checked, accepted step with `dsm ≤ θ`
-//! ([`TemporalErrorConfig::defer_below`], 0.1) the next trials' checks are deferred, as the
-//! stability limit defers its Lanczos runs: 1 after the first such step, then 2, 4, … up to
-//! [`TemporalErrorConfig::max_deferred`] (8), each only while the prediction
-//! `dsm·(dt/dt_checked)²` (the local error is second order in the step) stays at most θ.
-//! A check with `dsm > θ`, and any rejection, ends the deferral: the next trial is checked.
-//! A deferred trial is accepted by this limit without reading the particles (its judgement
-//! carries `dsm_predicted`, no `dsm`, and the filter keeps its history); the history stays,
-//! and the next check spans the deferred steps: with `gap` their total length,
-//!
-//! ```text
-//! d²u_p/dt² ≈ 2 (r_p − r_p^{prev}) / (dt + dt₋ + 2·gap)     (the rates' midpoints apart)
-//! ```
-//!
-//! which is the every-step form when `gap = 0`: the second derivative *averaged* over up to
-//! `2·max_deferred + 2` steps. The weights' field scales are likewise the last checked
-//! step's (if the fields shrank since, the test is that much looser than the 1D
-//! definition). What this gives up: the error of a deferred step is not measured. A second
-//! derivative that jumps by more than `1/θ` within the deferral (an impact starting
-//! mid-way) is seen at the next check, up to `max_deferred` steps late and diluted by the
-//! span, and not rejected before; a short event that starts and ends inside a deferral may
-//! not be seen at all. On a grid-decomposed run a trial that moves particles between
-//! processes is always checked (the history must follow the committed order). Non-finite
-//! values in a trial are still caught on every step by the controller's own scan of the
-//! trial, before any limit judges it. The controller's filter is not fed on a
-//! deferred step; the next check enters its history as if it followed the last checked
-//! step (filters with step-ratio terms take that ratio across the deferred steps).
-//! `max_deferred: 0` checks every trial, as the paper's controller does and as the 1D
-//! limit always does.
+//! **Deferred checks** ([`crate::controller::deferral`]): while `dsm` stays far below the
+//! tolerance the checks of the next trials are deferred (1, 2, 4, up to 8 trials). On a
+//! grid-decomposed run a trial that moves particles between processes is always checked,
+//! so that the history keeps following the committed order.
 //!
 //! **Runs over several processes.** Each process judges *its own* particles: its `dsm` is
 //! the norm over them with its own field scales, and the controller rejects the step when
@@ -93,14 +64,12 @@
 //! **Not carried over:** the balancing of eq 44's spatial error (`balance`), whose
 //! estimators are 1D; a configured `balance` is reported as an error, not ignored.
 
-use super::temporal_sweep::{sweep, Deferral, History, Pairing, Weights, LEFT_OUT, NONE};
+use super::temporal_sweep::{sweep, History, Pairing, Weights, LEFT_OUT, NONE};
+use crate::controller::deferral::Deferral;
 use crate::controller::{metric, TemporalErrorConfig, TEMPORAL_ERROR};
 use crate::dimension::{Dim, Dimension};
 use crate::limit::{Judgement, LimitError, Metrics, Proposal, RejectCause, StepLimit, Verdict};
 use crate::nd::{Tensor, Vector, ViewNd};
-
-/// Checks deferred in a row at most when [`TemporalErrorConfig::max_deferred`] is unset.
-pub const DEFAULT_MAX_DEFERRED: u32 = 8;
 
 /// Relative growth of a field scale over the previous step's below which the weights keep
 /// the previous scale (one pass over the particles instead of two).
@@ -147,16 +116,10 @@ impl<const D: usize> TemporalErrorNd<D> {
         }
     }
 
-    /// Checks deferred in a row at most.
-    fn max_deferred(&self) -> u32 {
-        self.config.max_deferred.unwrap_or(DEFAULT_MAX_DEFERRED)
-    }
-
-    /// `dsm` of a trial of step `dt` predicted from the history's measured one, when this
-    /// trial's check is deferred (module docs): deferral is on, a deferred check is left,
-    /// the trial keeps its particles in their committed order (on a grid-decomposed run a
-    /// trial that moves particles between processes is checked, so that the history keeps
-    /// following the committed order), and the prediction is at most the threshold.
+    /// `dsm` of a trial of step `dt` predicted from the history's checked one, when this
+    /// trial's check is deferred ([`Deferral::predict`]) and the trial keeps its particles
+    /// in their committed order (on a grid-decomposed run a trial that moves particles
+    /// between processes is checked, so that the history keeps following that order).
     fn deferrable(&self, before: &ViewNd<'_, D>, after: &ViewNd<'_, D>, dt: f64) -> Option<f64> {
         let h = self.history.as_ref()?;
         let same_particles = match (before.split, after.split) {
@@ -164,31 +127,10 @@ impl<const D: usize> TemporalErrorNd<D> {
             (Some(b), Some(a)) => a.particle_id == b.particle_id,
             _ => false,
         };
-        let predicted = h.defer.dsm * (dt / h.dt).powi(2);
-        (self.max_deferred() > 0
-            && h.defer.left > 0
-            && same_particles
-            && predicted <= self.config.defer_below)
-            .then_some(predicted)
-    }
-
-    /// The schedule after a measured step with `dsm`, following a history with `previous`:
-    /// the interval doubles (0, 1, 2, 4, … up to `max_deferred`) while `dsm ≤ θ`, and drops
-    /// to 0 (check every trial) otherwise.
-    fn schedule(&self, previous: Option<Deferral>, dsm: f64) -> Deferral {
-        let interval = if dsm <= self.config.defer_below {
-            previous
-                .map_or(1, |d| d.interval.saturating_mul(2).max(1))
-                .min(self.max_deferred())
-        } else {
-            0
-        };
-        Deferral {
-            // A finite value (JSON has no NaN): a non-finite one defers nothing.
-            dsm: if dsm.is_finite() { dsm } else { f64::MAX },
-            interval,
-            left: interval,
-        }
+        let c = &self.config;
+        h.defer
+            .predict(h.dt, dt, c.defer_below, c.max_deferred)
+            .filter(|_| same_particles)
     }
 
     fn other(message: String) -> LimitError {
@@ -433,7 +375,7 @@ where
         if self.deferred.take().is_some_and(this) {
             if let Some(h) = self.history.as_mut() {
                 h.gap += dt;
-                h.defer.left = h.defer.left.saturating_sub(1);
+                h.defer.spend();
             }
             return;
         }
@@ -464,7 +406,10 @@ where
         let old = match new {
             Some(mut h) => {
                 h.gap = 0.0;
-                h.defer = self.schedule(self.history.as_ref().map(|o| o.defer), h.defer.dsm);
+                let c = &self.config;
+                let previous = self.history.as_ref().map(|o| o.defer);
+                h.defer =
+                    Deferral::after_check(previous, h.defer.dsm, c.defer_below, c.max_deferred);
                 self.history.replace(h)
             }
             None => self.history.take(),
@@ -481,8 +426,7 @@ where
         }
         self.deferred = None;
         if let Some(h) = self.history.as_mut() {
-            h.defer.interval = 0;
-            h.defer.left = 0;
+            h.defer.reset();
         }
     }
 
@@ -500,9 +444,7 @@ where
         }
         self.history = history.map(|mut h| {
             // A schedule saved under a larger `max_deferred` defers no more than this one.
-            let max = self.max_deferred();
-            h.defer.interval = h.defer.interval.min(max);
-            h.defer.left = h.defer.left.min(max);
+            h.defer.clamp(self.config.max_deferred);
             h
         });
         Ok(())

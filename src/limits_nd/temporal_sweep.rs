@@ -2,6 +2,7 @@
 //! keeps, how trial particles find their committed state and history, and the sweep that
 //! forms the rates, the field-scale maxima and the sums of the scaled errors.
 
+use crate::controller::deferral::Deferral;
 use crate::nd::{Tensor, Vector, ViewNd};
 use serde::{Deserialize, Serialize};
 
@@ -33,18 +34,6 @@ pub(super) struct History<const D: usize> {
     /// The deferral schedule after this step.
     #[serde(default)]
     pub defer: Deferral,
-}
-
-/// How many of the trials after a measured step skip their check (module docs of
-/// [`super::TemporalErrorNd`]).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub(super) struct Deferral {
-    /// The measured `dsm` of the step.
-    pub dsm: f64,
-    /// Checks deferred after it (0, 1, 2, 4, … up to `max_deferred`).
-    pub interval: u32,
-    /// Of those, the ones still to come.
-    pub left: u32,
 }
 
 /// How trial particles find their committed state and their history.

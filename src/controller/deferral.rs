@@ -1,0 +1,96 @@
+//! Deferred temporal-error checks, shared by the 1D [`super::TemporalError`] and the
+//! 2D/3D [`crate::limits_nd::TemporalErrorNd`].
+//!
+//! At a stable step the temporal error is usually far below its tolerance — the paper (its
+//! introduction and the close of Section 3, after Steffen et al. \[12\]) notes that spatial
+//! errors dominate at stable steps — and checking it reads every particle of both states
+//! and the previous rates. So after a checked, accepted step with `dsm ≤ θ`
+//! ([`super::TemporalErrorConfig::defer_below`], 0.1) the next trials' checks are
+//! deferred: 1 after the first such step, then 2, 4, … up to
+//! [`super::TemporalErrorConfig::max_deferred`] (8), each only while the prediction
+//! `dsm·(dt/dt_checked)²` (the local error is second order in the step) stays at most θ.
+//! A check with `dsm > θ`, and any rejection, ends the deferral: the next trial is checked.
+//!
+//! A deferred trial is accepted by the limit without reading the particles (its judgement
+//! carries `dsm_predicted`, no `dsm`); the history stays, and the next check spans the
+//! deferred steps: with `gap` their total length, the rates `r` at the midpoints of their
+//! steps give
+//!
+//! ```text
+//! d²u_p/dt² ≈ (r_p − r_p^{prev}) / (dt/2 + gap + dt₋/2)
+//! ```
+//!
+//! the every-step form when `gap = 0`: the second derivative *averaged* over up to
+//! `2·max_deferred + 2` steps, and the field scales of the weights are the last checked
+//! step's (if the fields shrank since, the test is that much looser).
+//!
+//! **What this gives up.** The error of a deferred step is not measured. A second
+//! derivative that jumps by more than `1/θ` within the deferral (an impact starting
+//! mid-way) is seen at the next check, up to `max_deferred` steps late and diluted by the
+//! span, and not rejected before; a short event that starts and ends inside a deferral may
+//! not be seen at all. Non-finite values in a trial are still caught on every step by the
+//! controller's own scan of the trial, before any limit judges it. The controller's filter
+//! is not fed on a deferred step; the next check enters its history as if it followed the
+//! last checked step (filters with step-ratio terms take that ratio across the deferred
+//! steps). `max_deferred: 0` checks every trial, as the paper's controller does.
+
+use serde::{Deserialize, Serialize};
+
+/// Checks deferred in a row at most, by default ([`super::TemporalErrorConfig`]).
+pub const DEFAULT_MAX_DEFERRED: u32 = 8;
+
+/// How many of the trials after a checked step skip their check (module docs).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Deferral {
+    /// The checked step's `dsm` (finite: a non-finite one is stored as `f64::MAX`).
+    pub dsm: f64,
+    /// Checks deferred after it (0, 1, 2, 4, … up to `max_deferred`).
+    pub interval: u32,
+    /// Of those, the ones still to come.
+    pub left: u32,
+}
+
+impl Deferral {
+    /// The schedule after a checked, accepted step with `dsm`, following a history whose
+    /// schedule was `previous`: the interval doubles (0, 1, 2, 4, … up to `max`) while
+    /// `dsm ≤ below`, and drops to 0 (check every trial) otherwise.
+    pub fn after_check(previous: Option<Deferral>, dsm: f64, below: f64, max: u32) -> Self {
+        let interval = if dsm <= below {
+            previous
+                .map_or(1, |d| d.interval.saturating_mul(2).max(1))
+                .min(max)
+        } else {
+            0
+        };
+        Self {
+            dsm: if dsm.is_finite() { dsm } else { f64::MAX },
+            interval,
+            left: interval,
+        }
+    }
+
+    /// The predicted `dsm` of a trial of step `dt` when its check may be deferred: a
+    /// deferred check is left, deferral is on (`max > 0`) and `dsm·(dt/dt_checked)² ≤
+    /// below`.
+    pub fn predict(&self, dt_checked: f64, dt: f64, below: f64, max: u32) -> Option<f64> {
+        let predicted = self.dsm * (dt / dt_checked).powi(2);
+        (max > 0 && self.left > 0 && predicted <= below).then_some(predicted)
+    }
+
+    /// A deferred trial was accepted.
+    pub fn spend(&mut self) {
+        self.left = self.left.saturating_sub(1);
+    }
+
+    /// Any rejection: the next trial is checked, and the schedule starts again.
+    pub fn reset(&mut self) {
+        self.interval = 0;
+        self.left = 0;
+    }
+
+    /// A restored schedule defers no more than `max`.
+    pub fn clamp(&mut self, max: u32) {
+        self.interval = self.interval.min(max);
+        self.left = self.left.min(max);
+    }
+}
