@@ -114,6 +114,22 @@ struct State {
     active: Vec<bool>,
 }
 
+impl State {
+    /// `self` becomes a copy of `c`'s particle fields, keeping its own allocations (the
+    /// weights and the grid fields are rebuilt by [`particle_to_grid`] anyway).
+    fn copy_particles_from(&mut self, c: &State) {
+        self.t = c.t;
+        self.step = c.step;
+        self.x.clone_from(&c.x);
+        self.v.clone_from(&c.v);
+        self.affine.clone_from(&c.affine);
+        self.f.clone_from(&c.f);
+        self.j.clone_from(&c.j);
+        self.sigma.clone_from(&c.sigma);
+        self.density.clone_from(&c.density);
+    }
+}
+
 /// The MLS-MPM solver.
 pub struct MlsMpm {
     grid: GridNd<2>,
@@ -126,6 +142,9 @@ pub struct MlsMpm {
     lame_mu: Vec<f64>,
     committed: State,
     trial: Option<State>,
+    /// A state no longer needed (the last replaced or rejected one), whose arrays the next
+    /// trial overwrites: a step allocates nothing.
+    spare: Option<State>,
 }
 
 impl MlsMpm {
@@ -174,6 +193,7 @@ impl MlsMpm {
             lame_mu: vec![mu; n],
             committed,
             trial: None,
+            spare: None,
         }
     }
 
@@ -280,7 +300,7 @@ fn particle_to_grid(
 }
 
 impl MlsMpm {
-    fn trial_from(&self, dt: f64) -> Result<State, StepError> {
+    fn trial_from(&self, dt: f64, spare: Option<State>) -> Result<State, StepError> {
         let c = &self.committed;
         let grid = &self.grid;
         let h = grid.h[0];
@@ -301,8 +321,14 @@ impl MlsMpm {
                 }
             }
         }
-        // 2. Grid to particle.
-        let mut s = c.clone();
+        // 2. Grid to particle, into the spare state's arrays when there is one.
+        let mut s = match spare {
+            Some(mut s) => {
+                s.copy_particles_from(c);
+                s
+            }
+            None => c.clone(),
+        };
         s.t = c.t + dt;
         s.step = c.step + 1;
         for p in 0..c.x.len() {
@@ -418,25 +444,30 @@ impl Stepper<2> for MlsMpm {
     }
 
     fn try_step(&mut self, dt: f64) -> Result<(), StepError> {
-        self.trial = None;
+        if let Some(old) = self.trial.take() {
+            self.spare = Some(old);
+        }
         if !(dt.is_finite() && dt > 0.0) {
             return Err(StepError::InvalidDt {
                 dt,
                 t: self.committed.t,
             });
         }
-        self.trial = Some(self.trial_from(dt)?);
+        let spare = self.spare.take();
+        self.trial = Some(self.trial_from(dt, spare)?);
         Ok(())
     }
 
     fn accept(&mut self) -> Result<(), StepError> {
         let trial = self.trial.take().ok_or(StepError::NoTrial)?;
-        self.committed = trial;
+        self.spare = Some(std::mem::replace(&mut self.committed, trial));
         Ok(())
     }
 
     fn reject(&mut self) {
-        self.trial = None;
+        if let Some(old) = self.trial.take() {
+            self.spare = Some(old);
+        }
     }
 
     fn view(&self) -> ViewNd<'_, 2> {
