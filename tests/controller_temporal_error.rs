@@ -177,4 +177,33 @@ fn deferred_checks_in_1d_resume_and_see_the_steps_between() {
         "{:?}",
         retry.metrics
     );
+    deferring.accepted(&before, &after, dt);
+    s.accept().unwrap();
+    // The schedule starts again at one deferred trial; saved in the middle of it, a
+    // restored limit continues it (the next trial is deferred), unless it checks every
+    // trial.
+    s.try_step(dt).unwrap();
+    let (before, after) = (s.view(), s.trial_view().unwrap());
+    let saved = deferring.save_state().expect("a history");
+    assert_eq!(saved["defer"]["left"].as_u64(), Some(1), "{saved}");
+    let mut restored = TemporalError::new(TemporalErrorConfig::default()).unwrap();
+    restored.restore_state(&saved).unwrap();
+    let j = restored.judge(&before, &after, dt).unwrap();
+    assert!(j.metrics.contains_key("dsm_predicted"), "{:?}", j.metrics);
+    every.restore_state(&saved).unwrap();
+    let j = every.judge(&before, &after, dt).unwrap();
+    assert!(j.metrics.contains_key(metric::DSM), "{:?}", j.metrics);
+    // A step whose prediction is above 0.1 is checked.
+    let dsm = retry.metrics[metric::DSM];
+    s.reject();
+    let big = dt * (0.2 / dsm).sqrt();
+    s.try_step(big).unwrap();
+    let j = restored
+        .judge(&s.view(), &s.trial_view().unwrap(), big)
+        .unwrap();
+    assert!(j.metrics.contains_key(metric::DSM), "{:?}", j.metrics);
+    // A saved schedule whose checked dsm is negative does not restore.
+    let mut bad = saved.clone();
+    bad["defer"]["dsm"] = serde_json::json!(-1.0);
+    assert!(restored.restore_state(&bad).is_err());
 }

@@ -143,7 +143,7 @@ pub struct MlsMpm {
     committed: State,
     trial: Option<State>,
     /// A state no longer needed (the last replaced or rejected one), whose arrays the next
-    /// trial overwrites: a step allocates nothing.
+    /// trial overwrites instead of cloning the committed state.
     spare: Option<State>,
 }
 

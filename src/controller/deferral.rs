@@ -21,7 +21,7 @@
 //! ```
 //!
 //! the every-step form when `gap = 0`: the second derivative *averaged* over up to
-//! `2·max_deferred + 2` steps, and the field scales of the weights are the last checked
+//! `max_deferred + 2` steps, and the field scales of the weights are the last checked
 //! step's (if the fields shrank since, the test is that much looser).
 //!
 //! **What this gives up.** The error of a deferred step is not measured. A second

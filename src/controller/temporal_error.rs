@@ -11,8 +11,9 @@
 //! This limit estimates the second time derivatives from successive rates of the committed
 //! and trial particle fields:
 //!
-//! * from the second step on, from the previous accepted step (`n−1 → n`, size `dt₋`) and
-//!   the trial (`n → n+1`, size `dt`):
+//! * from the second step on, from the previous accepted step (`n−1 → n`, size `dt₋`;
+//!   the last checked one when checks were deferred since, below) and the trial
+//!   (`n → n+1`, size `dt`):
 //!   `d²u/dt² ≈ 2 (r_n − r_{n−1}) / (dt + dt₋)` with `r_n = (u^{n+1} − u^n)/dt` for
 //!   `u = v_p` (the particle acceleration of eq 22) and `u = σ_p` (the stress rate of
 //!   eq 27);
@@ -145,7 +146,7 @@ impl TemporalErrorConfig {
     }
 }
 
-/// Rates of the last accepted step, kept for the next estimate.
+/// Rates of the last checked, accepted step, kept for the next estimate.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 struct History {
     dt: f64,
@@ -420,10 +421,11 @@ impl StepLimit for TemporalError {
     ) -> Result<Judgement, LimitError> {
         self.deferred = None;
         let c = &self.config;
+        let n = after.n_particles();
         let deferrable = self.history.as_ref().and_then(|h| {
             h.defer
                 .predict(h.dt, dt, c.defer_below, c.max_deferred)
-                .filter(|_| h.accel.len() == after.n_particles())
+                .filter(|_| h.accel.len() == n && before.n_particles() == n)
         });
         if let Some(predicted) = deferrable {
             self.deferred = Some((before.t, dt));
@@ -502,14 +504,21 @@ impl StepLimit for TemporalError {
                 }
             }
         };
-        if let Some(mut h) = new {
-            let c = &self.config;
-            let previous = self.history.as_ref().map(|o| o.defer);
-            h.gap = 0.0;
-            h.defer = Deferral::after_check(previous, h.defer.dsm, c.defer_below, c.max_deferred);
-            if let Some(old) = self.history.replace(h) {
-                self.recycle(old);
+        // Without this step's rates the old history would no longer be the last step's:
+        // dropped, so that the next estimate takes the first-step form.
+        let old = match new {
+            Some(mut h) => {
+                let c = &self.config;
+                let previous = self.history.as_ref().map(|o| o.defer);
+                h.gap = 0.0;
+                h.defer =
+                    Deferral::after_check(previous, h.defer.dsm, c.defer_below, c.max_deferred);
+                self.history.replace(h)
             }
+            None => self.history.take(),
+        };
+        if let Some(old) = old {
+            self.recycle(old);
         }
     }
 
@@ -531,12 +540,18 @@ impl StepLimit for TemporalError {
     fn restore_state(&mut self, state: &serde_json::Value) -> Result<(), LimitError> {
         let history: Option<History> = serde_json::from_value(state.clone())
             .map_err(|e| Self::other(format!("cannot restore state: {e}")))?;
-        if history
-            .as_ref()
-            .is_some_and(|h| !(h.gap.is_finite() && h.gap >= 0.0))
-        {
+        let consistent = |h: &History| {
+            h.accel.len() == h.stress_rate.len()
+                && h.dt.is_finite()
+                && h.dt > 0.0
+                && h.gap.is_finite()
+                && h.gap >= 0.0
+                && h.defer.dsm >= 0.0
+        };
+        if history.as_ref().is_some_and(|h| !consistent(h)) {
             return Err(Self::other(
-                "cannot restore state: the gap is not a finite non-negative time".to_string(),
+                "cannot restore state: rates, step, gap and schedule do not belong together"
+                    .to_string(),
             ));
         }
         // A schedule saved under a larger `max_deferred` defers no more than this one.

@@ -12,7 +12,7 @@ pub(super) const NONE: u32 = u32::MAX;
 /// The history id of a particle left out of its trial's estimate (it has no rates).
 pub(super) const LEFT_OUT: u64 = u64::MAX;
 
-/// Rates of the last accepted step, kept for the next estimate.
+/// Rates of the last checked, accepted step, kept for the next estimate.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub(super) struct History<const D: usize> {
     /// The step the rates were formed over.
@@ -53,7 +53,8 @@ pub(super) struct Pairing<'h, const D: usize> {
 
 impl<const D: usize> History<D> {
     /// The arrays belong together: one rate pair per particle, ids for all or none, a
-    /// positive finite step, a finite non-negative gap (what a restored state must satisfy
+    /// positive finite step, a finite non-negative gap and a non-negative checked `dsm`
+    /// (what a restored state must satisfy
     /// before it is indexed).
     pub fn consistent(&self) -> bool {
         self.accel.len() == self.stress_rate.len()
@@ -62,6 +63,7 @@ impl<const D: usize> History<D> {
             && self.dt > 0.0
             && self.gap.is_finite()
             && self.gap >= 0.0
+            && self.defer.dsm >= 0.0
     }
 }
 
