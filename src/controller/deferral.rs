@@ -34,12 +34,14 @@
 //! last checked step (filters with step-ratio terms take that ratio across the deferred
 //! steps). `max_deferred: 0` checks every trial, as the paper's controller does.
 
+use super::TemporalErrorConfig;
 use serde::{Deserialize, Serialize};
 
 /// Checks deferred in a row at most, by default ([`super::TemporalErrorConfig`]).
 pub const DEFAULT_MAX_DEFERRED: u32 = 8;
 
-/// How many of the trials after a checked step skip their check (module docs).
+/// How many of the trials after a checked step skip their check, and how much time the
+/// deferred ones took (module docs).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Deferral {
     /// The checked step's `dsm` (finite: a non-finite one is stored as `f64::MAX`).
@@ -48,13 +50,34 @@ pub struct Deferral {
     pub interval: u32,
     /// Of those, the ones still to come.
     pub left: u32,
+    /// Time from the end of the checked step to the start of the next trial: the deferred
+    /// steps accepted since (0 when the next trial follows the checked step).
+    #[serde(default)]
+    pub gap: f64,
+}
+
+/// The trial whose check was deferred: its start time and step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DeferredTrial {
+    /// Start time of the trial.
+    pub t: f64,
+    /// Its step.
+    pub dt: f64,
+}
+
+impl DeferredTrial {
+    /// Whether the trial starting at `t` with step `dt` is this one (bit for bit).
+    pub fn is(&self, t: f64, dt: f64) -> bool {
+        self.t.to_bits() == t.to_bits() && self.dt.to_bits() == dt.to_bits()
+    }
 }
 
 impl Deferral {
     /// The schedule after a checked, accepted step with `dsm`, following a history whose
-    /// schedule was `previous`: the interval doubles (0, 1, 2, 4, … up to `max`) while
-    /// `dsm ≤ below`, and drops to 0 (check every trial) otherwise.
-    pub fn after_check(previous: Option<Deferral>, dsm: f64, below: f64, max: u32) -> Self {
+    /// schedule was `previous`: the interval doubles (0, 1, 2, 4, … up to `max_deferred`)
+    /// while `dsm ≤ defer_below`, and drops to 0 (check every trial) otherwise.
+    pub fn after_check(previous: Option<Deferral>, dsm: f64, config: &TemporalErrorConfig) -> Self {
+        let (below, max) = (config.defer_below, config.max_deferred);
         let interval = if dsm <= below {
             previous
                 .map_or(1, |d| d.interval.saturating_mul(2).max(1))
@@ -66,20 +89,28 @@ impl Deferral {
             dsm: if dsm.is_finite() { dsm } else { f64::MAX },
             interval,
             left: interval,
+            gap: 0.0,
         }
     }
 
     /// The predicted `dsm` of a trial of step `dt` when its check may be deferred: a
-    /// deferred check is left, deferral is on (`max > 0`) and `dsm·(dt/dt_checked)² ≤
-    /// below`.
-    pub fn predict(&self, dt_checked: f64, dt: f64, below: f64, max: u32) -> Option<f64> {
+    /// deferred check is left, deferral is on (`max_deferred > 0`) and
+    /// `dsm·(dt/dt_checked)² ≤ defer_below`.
+    pub fn predict(&self, dt_checked: f64, dt: f64, config: &TemporalErrorConfig) -> Option<f64> {
         let predicted = self.dsm * (dt / dt_checked).powi(2);
-        (max > 0 && self.left > 0 && predicted <= below).then_some(predicted)
+        (config.max_deferred > 0 && self.left > 0 && predicted <= config.defer_below)
+            .then_some(predicted)
     }
 
-    /// A deferred trial was accepted.
-    pub fn spend(&mut self) {
+    /// A deferred trial of step `dt` was accepted.
+    pub fn spend(&mut self, dt: f64) {
         self.left = self.left.saturating_sub(1);
+        self.gap += dt;
+    }
+
+    /// A finite non-negative gap and checked `dsm` (what a restored schedule must hold).
+    pub fn consistent(&self) -> bool {
+        self.gap.is_finite() && self.gap >= 0.0 && self.dsm >= 0.0
     }
 
     /// Any rejection: the next trial is checked, and the schedule starts again.

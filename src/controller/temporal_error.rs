@@ -59,7 +59,7 @@
 
 use super::config::{check, ConfigError};
 use super::decision::metric;
-use super::deferral::{Deferral, DEFAULT_MAX_DEFERRED};
+use super::deferral::{Deferral, DeferredTrial, DEFAULT_MAX_DEFERRED};
 use super::temporal_kernels::{dispatch_rates, dispatch_sums, Fields, Terms};
 use crate::limit::{Judgement, LimitError, Metrics, Proposal, RejectCause, StepLimit, Verdict};
 use crate::stepper::View;
@@ -154,11 +154,8 @@ struct History {
     stress_rate: Vec<f64>,
     v_scale: f64,
     sigma_scale: f64,
-    /// Time from the end of this step to the start of the next trial: the deferred steps
-    /// accepted since ([`super::deferral`]; 0 when the next trial follows this step).
-    #[serde(default)]
-    gap: f64,
-    /// The deferral schedule after this step.
+    /// The deferral schedule after this step, and the time deferred since
+    /// ([`super::deferral`]).
     #[serde(default)]
     defer: Deferral,
 }
@@ -172,7 +169,6 @@ impl History {
             stress_rate: Vec::new(),
             v_scale: 0.0,
             sigma_scale: 0.0,
-            gap: 0.0,
             defer: Deferral::default(),
         }
     }
@@ -193,8 +189,8 @@ pub struct TemporalError {
     judged: Option<(f64, f64, History)>,
     /// A history no longer needed, whose arrays the next estimate overwrites.
     spare: Option<History>,
-    /// The last judged trial `(t, dt)` when its check was deferred.
-    deferred: Option<(f64, f64)>,
+    /// The last judged trial when its check was deferred.
+    deferred: Option<DeferredTrial>,
 }
 
 /// The name of the limit in logs and statistics.
@@ -349,7 +345,7 @@ impl TemporalError {
                 stress_rate,
                 &h.stress_rate,
                 // The rates sit at the midpoints of their steps, `gap` apart.
-                0.5 * (dt + h.dt) + h.gap,
+                0.5 * (dt + h.dt) + h.defer.gap,
             ),
             _ => {
                 nodal = (Self::nodal_rates(before)?, Self::nodal_rates(after)?);
@@ -420,15 +416,14 @@ impl StepLimit for TemporalError {
         dt: f64,
     ) -> Result<Judgement, LimitError> {
         self.deferred = None;
-        let c = &self.config;
         let n = after.n_particles();
         let deferrable = self.history.as_ref().and_then(|h| {
             h.defer
-                .predict(h.dt, dt, c.defer_below, c.max_deferred)
+                .predict(h.dt, dt, &self.config)
                 .filter(|_| h.accel.len() == n && before.n_particles() == n)
         });
         if let Some(predicted) = deferrable {
-            self.deferred = Some((before.t, dt));
+            self.deferred = Some(DeferredTrial { t: before.t, dt });
             let mut metrics = Metrics::new();
             metrics.insert("dsm_predicted".to_string(), predicted);
             return Ok(Judgement {
@@ -470,13 +465,9 @@ impl StepLimit for TemporalError {
 
     fn accepted(&mut self, before: &View<'_>, after: &View<'_>, dt: f64) {
         // A deferred trial: the history stays, one step further back.
-        let this = |(t, step): (f64, f64)| {
-            t.to_bits() == before.t.to_bits() && step.to_bits() == dt.to_bits()
-        };
-        if self.deferred.take().is_some_and(this) {
+        if self.deferred.take().is_some_and(|d| d.is(before.t, dt)) {
             if let Some(h) = self.history.as_mut() {
-                h.gap += dt;
-                h.defer.spend();
+                h.defer.spend(dt);
             }
             return;
         }
@@ -508,11 +499,8 @@ impl StepLimit for TemporalError {
         // dropped, so that the next estimate takes the first-step form.
         let old = match new {
             Some(mut h) => {
-                let c = &self.config;
                 let previous = self.history.as_ref().map(|o| o.defer);
-                h.gap = 0.0;
-                h.defer =
-                    Deferral::after_check(previous, h.defer.dsm, c.defer_below, c.max_deferred);
+                h.defer = Deferral::after_check(previous, h.defer.dsm, &self.config);
                 self.history.replace(h)
             }
             None => self.history.take(),
@@ -544,9 +532,7 @@ impl StepLimit for TemporalError {
             h.accel.len() == h.stress_rate.len()
                 && h.dt.is_finite()
                 && h.dt > 0.0
-                && h.gap.is_finite()
-                && h.gap >= 0.0
-                && h.defer.dsm >= 0.0
+                && h.defer.consistent()
         };
         if history.as_ref().is_some_and(|h| !consistent(h)) {
             return Err(Self::other(

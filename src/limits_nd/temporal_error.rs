@@ -65,7 +65,7 @@
 //! estimators are 1D; a configured `balance` is reported as an error, not ignored.
 
 use super::temporal_sweep::{sweep, History, Pairing, Weights, LEFT_OUT, NONE};
-use crate::controller::deferral::Deferral;
+use crate::controller::deferral::{Deferral, DeferredTrial};
 use crate::controller::{metric, TemporalErrorConfig, TEMPORAL_ERROR};
 use crate::dimension::{Dim, Dimension};
 use crate::limit::{Judgement, LimitError, Metrics, Proposal, RejectCause, StepLimit, Verdict};
@@ -98,8 +98,8 @@ pub struct TemporalErrorNd<const D: usize> {
     spare: Option<History<D>>,
     /// Run-wide id → committed index (grid-decomposed runs, steps where particles moved).
     slot_before: Vec<u32>,
-    /// The last judged trial `(t, dt)` when its check was deferred.
-    deferred: Option<(f64, f64)>,
+    /// The last judged trial when its check was deferred.
+    deferred: Option<DeferredTrial>,
 }
 
 impl<const D: usize> TemporalErrorNd<D> {
@@ -127,9 +127,8 @@ impl<const D: usize> TemporalErrorNd<D> {
             (Some(b), Some(a)) => a.particle_id == b.particle_id,
             _ => false,
         };
-        let c = &self.config;
         h.defer
-            .predict(h.dt, dt, c.defer_below, c.max_deferred)
+            .predict(h.dt, dt, &self.config)
             .filter(|_| same_particles)
     }
 
@@ -327,7 +326,7 @@ where
         self.deferred = None;
         if let Some(predicted) = self.deferrable(before, after, dt) {
             self.supported()?;
-            self.deferred = Some((before.t, dt));
+            self.deferred = Some(DeferredTrial { t: before.t, dt });
             let mut metrics = Metrics::new();
             metrics.insert("dsm_predicted".to_string(), predicted);
             return Ok(Judgement {
@@ -369,13 +368,9 @@ where
 
     fn accepted(&mut self, before: &ViewNd<'_, D>, after: &ViewNd<'_, D>, dt: f64) {
         // A deferred trial: the history stays, one step further back.
-        let this = |(t, step): (f64, f64)| {
-            t.to_bits() == before.t.to_bits() && step.to_bits() == dt.to_bits()
-        };
-        if self.deferred.take().is_some_and(this) {
+        if self.deferred.take().is_some_and(|d| d.is(before.t, dt)) {
             if let Some(h) = self.history.as_mut() {
-                h.gap += dt;
-                h.defer.spend();
+                h.defer.spend(dt);
             }
             return;
         }
@@ -405,11 +400,8 @@ where
         // that the next estimate takes the first-step form.
         let old = match new {
             Some(mut h) => {
-                h.gap = 0.0;
-                let c = &self.config;
                 let previous = self.history.as_ref().map(|o| o.defer);
-                h.defer =
-                    Deferral::after_check(previous, h.defer.dsm, c.defer_below, c.max_deferred);
+                h.defer = Deferral::after_check(previous, h.defer.dsm, &self.config);
                 self.history.replace(h)
             }
             None => self.history.take(),

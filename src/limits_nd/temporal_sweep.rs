@@ -27,11 +27,7 @@ pub(super) struct History<const D: usize> {
     pub v_scale: f64,
     /// `‖σ‖_∞` of the step.
     pub sigma_scale: f64,
-    /// Time from the end of this step to the start of the next trial: the deferred steps
-    /// accepted since (0 when the next trial follows this step).
-    #[serde(default)]
-    pub gap: f64,
-    /// The deferral schedule after this step.
+    /// The deferral schedule after this step, and the time deferred since.
     #[serde(default)]
     pub defer: Deferral,
 }
@@ -61,9 +57,7 @@ impl<const D: usize> History<D> {
             && (self.ids.is_empty() || self.ids.len() == self.accel.len())
             && self.dt.is_finite()
             && self.dt > 0.0
-            && self.gap.is_finite()
-            && self.gap >= 0.0
-            && self.defer.dsm >= 0.0
+            && self.defer.consistent()
     }
 }
 
@@ -176,7 +170,7 @@ pub(super) fn sweep<const D: usize>(
             let (d2v, d2s) = match hist {
                 Some(hist) => {
                     // The rates sit at the midpoints of their steps, `gap` apart.
-                    let inv_span = 2.0 / (dt + hist.dt + 2.0 * hist.gap);
+                    let inv_span = 2.0 / (dt + hist.dt + 2.0 * hist.defer.gap);
                     (
                         (accel - hist.accel[q]) * inv_span,
                         (stress_rate - hist.stress_rate[q]) * inv_span,
