@@ -137,29 +137,35 @@ where
             format!("{column}: no result ({count} {what}, within the limit of {limit})")
         }
     };
-    let mut skipped = Vec::new();
-    if table.lambda_max_dense.is_none() {
-        let limit = critical::DENSE_LIMIT;
-        skipped.push(reason(
+    // (left null, column, size, what is counted, the tool's limit)
+    let columns = [
+        (
+            table.lambda_max_dense.is_none(),
             "lambda_max_dense",
             unknowns,
             "nodal unknowns",
-            limit,
-        ));
-    }
-    if table.dt_full_map.is_none() {
-        let limit = FULL_MAP_LIMIT;
-        skipped.push(reason(
+            critical::DENSE_LIMIT,
+        ),
+        (
+            table.dt_full_map.is_none(),
             "dt_full_map",
             particle_unknowns,
             "particle unknowns",
-            limit,
-        ));
-    }
-    if table.dt_empirical.is_none() {
-        let limit = critical::EMPIRICAL_LIMIT;
-        skipped.push(reason("dt_empirical", pairs, "particle-node pairs", limit));
-    }
+            FULL_MAP_LIMIT,
+        ),
+        (
+            table.dt_empirical.is_none(),
+            "dt_empirical",
+            pairs,
+            "particle-node pairs",
+            critical::EMPIRICAL_LIMIT,
+        ),
+    ];
+    let mut skipped: Vec<String> = columns
+        .into_iter()
+        .filter(|column| column.0)
+        .map(|(_, column, count, what, limit)| reason(column, count, what, limit))
+        .collect();
     if !dt_controller.is_finite() {
         skipped.push(NO_PROPOSAL.to_string());
     }
@@ -297,10 +303,7 @@ fn run(args: &Args) -> Result<Value, Box<dyn std::error::Error>> {
             small,
         )?)
     };
-    let (bound, emp) = match runs {
-        Some((bound, emp)) => (Some(bound), Some(emp)),
-        None => (None, None),
-    };
+    let (bound, emp) = runs.unzip();
     table["bound58"] = json!(bound);
     table["dt_empirical"] = json!(emp.map(|e| e.dt()));
     table["dt_empirical_bracket"] = json!(emp.map(|e| [e.dt_stable, e.dt_unstable]));

@@ -115,18 +115,17 @@ struct State {
 }
 
 impl State {
-    /// `self` becomes a copy of `c`'s particle fields, keeping its own allocations (the
-    /// weights and the grid fields are rebuilt by [`particle_to_grid`] anyway).
-    fn copy_particles_from(&mut self, c: &State) {
-        self.t = c.t;
-        self.step = c.step;
-        self.x.clone_from(&c.x);
-        self.v.clone_from(&c.v);
-        self.affine.clone_from(&c.affine);
-        self.f.clone_from(&c.f);
-        self.j.clone_from(&c.j);
-        self.sigma.clone_from(&c.sigma);
-        self.density.clone_from(&c.density);
+    /// `self` takes `n` particles, keeping its own allocations: a trial rewrites every
+    /// particle field before reading it, and [`particle_to_grid`] rebuilds the weights and
+    /// the grid fields.
+    fn fit_particles(&mut self, n: usize) {
+        self.x.resize(n, Vector2::zeros());
+        self.v.resize(n, Vector2::zeros());
+        self.affine.resize(n, Matrix2::zeros());
+        self.f.resize(n, Matrix2::zeros());
+        self.j.resize(n, 0.0);
+        self.sigma.resize(n, Matrix2::zeros());
+        self.density.resize(n, 0.0);
     }
 }
 
@@ -306,8 +305,18 @@ impl MlsMpm {
         let h = grid.h[0];
         let inv = 4.0 / (h * h);
         let n_cells = grid.cells[0] as i64;
-        // 1. Grid update with mpm88's walls.
-        let mut vi: Vec<Vector2<f64>> = c.node_v.clone();
+        // The trial, in the spare state's arrays when there is one.
+        let mut s = match spare {
+            Some(mut s) => {
+                s.fit_particles(c.x.len());
+                s
+            }
+            None => c.clone(),
+        };
+        // 1. Grid update with mpm88's walls, in the trial's nodal-velocity array (which
+        // `particle_to_grid` rebuilds at the end).
+        let mut vi = std::mem::take(&mut s.node_v);
+        vi.clone_from(&c.node_v);
         for (i, v) in vi.iter_mut().enumerate() {
             if !c.active[i] {
                 *v = Vector2::zeros();
@@ -321,14 +330,7 @@ impl MlsMpm {
                 }
             }
         }
-        // 2. Grid to particle, into the spare state's arrays when there is one.
-        let mut s = match spare {
-            Some(mut s) => {
-                s.copy_particles_from(c);
-                s
-            }
-            None => c.clone(),
-        };
+        // 2. Grid to particle.
         s.t = c.t + dt;
         s.step = c.step + 1;
         for p in 0..c.x.len() {
@@ -388,6 +390,7 @@ impl MlsMpm {
             }
         }
         // 3. The new state's grid fields.
+        s.node_v = vi;
         particle_to_grid(
             grid,
             &self.model,

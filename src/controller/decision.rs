@@ -12,6 +12,9 @@ use serde::{Deserialize, Serialize};
 pub mod metric {
     /// Scaled temporal error (eqs 20–30), `dsm ≤ 1` accepts; fed to the filter.
     pub const DSM: &str = "dsm";
+    /// A deferred temporal-error check's predicted `dsm` (not measured; not fed to the
+    /// filter; [`crate::controller::deferral`]).
+    pub const DSM_PREDICTED: &str = "dsm_predicted";
     /// Largest eigenvalue of `D*F` (eq 56) tracked by the stability limit.
     pub const LAMBDA_MAX: &str = "lambda_max";
     /// The eq 58 lower bound on the amplification-matrix norm.

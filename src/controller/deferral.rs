@@ -34,7 +34,8 @@
 //! last checked step (filters with step-ratio terms take that ratio across the deferred
 //! steps). `max_deferred: 0` checks every trial, as the paper's controller does.
 
-use super::TemporalErrorConfig;
+use super::{metric, TemporalErrorConfig};
+use crate::limit::{Judgement, Metrics, Verdict};
 use serde::{Deserialize, Serialize};
 
 /// Checks deferred in a row at most, by default ([`super::TemporalErrorConfig`]).
@@ -66,6 +67,17 @@ pub struct DeferredTrial {
 }
 
 impl DeferredTrial {
+    /// The judgement of a deferred trial: accepted, with its predicted `dsm` (no `dsm`, so
+    /// the controller's filter is not fed).
+    pub fn judgement(predicted: f64) -> Judgement {
+        let mut metrics = Metrics::new();
+        metrics.insert(metric::DSM_PREDICTED.to_string(), predicted);
+        Judgement {
+            verdict: Verdict::Accept,
+            metrics,
+        }
+    }
+
     /// Whether the trial starting at `t` with step `dt` is this one (bit for bit).
     pub fn is(&self, t: f64, dt: f64) -> bool {
         self.t.to_bits() == t.to_bits() && self.dt.to_bits() == dt.to_bits()

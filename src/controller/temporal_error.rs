@@ -424,12 +424,7 @@ impl StepLimit for TemporalError {
         });
         if let Some(predicted) = deferrable {
             self.deferred = Some(DeferredTrial { t: before.t, dt });
-            let mut metrics = Metrics::new();
-            metrics.insert("dsm_predicted".to_string(), predicted);
-            return Ok(Judgement {
-                verdict: Verdict::Accept,
-                metrics,
-            });
+            return Ok(DeferredTrial::judgement(predicted));
         }
         let mut rates = self.take_buffer();
         let (dsm, dsm_v, dsm_s) = match self.estimate(before, after, dt, &mut rates) {

@@ -122,14 +122,15 @@ impl<const D: usize> TemporalErrorNd<D> {
     /// between processes is checked, so that the history keeps following that order).
     fn deferrable(&self, before: &ViewNd<'_, D>, after: &ViewNd<'_, D>, dt: f64) -> Option<f64> {
         let h = self.history.as_ref()?;
-        let same_particles = match (before.split, after.split) {
+        // The ids are compared only for a trial the schedule would defer.
+        let same_particles = || match (before.split, after.split) {
             (None, None) => true,
             (Some(b), Some(a)) => a.particle_id == b.particle_id,
             _ => false,
         };
         h.defer
             .predict(h.dt, dt, &self.config)
-            .filter(|_| same_particles)
+            .filter(|_| same_particles())
     }
 
     fn other(message: String) -> LimitError {
@@ -327,12 +328,7 @@ where
         if let Some(predicted) = self.deferrable(before, after, dt) {
             self.supported()?;
             self.deferred = Some(DeferredTrial { t: before.t, dt });
-            let mut metrics = Metrics::new();
-            metrics.insert("dsm_predicted".to_string(), predicted);
-            return Ok(Judgement {
-                verdict: Verdict::Accept,
-                metrics,
-            });
+            return Ok(DeferredTrial::judgement(predicted));
         }
         let mut rates = self.take_buffer();
         let e = match self.estimate(before, after, dt, &mut rates) {
