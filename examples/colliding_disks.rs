@@ -21,6 +21,9 @@
 //! the step against time for both (the USL step dissipates energy, so the total drifts down
 //! in both runs).
 
+#[path = "common/repeats.rs"]
+mod repeats;
+
 use mpm_dt::controller::{Controller, Outcome};
 use mpm_dt::limits_nd::{standard_limits, SoundSpeedNd};
 use mpm_dt::nd::scenario::ScenarioNd;
@@ -242,17 +245,6 @@ fn plot(
     Ok(())
 }
 
-/// The median of `v` (not empty; the mean of the middle two for an even length).
-fn median(v: &mut [f64]) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
-}
-
 fn run<const D: usize>(
     scenario: &ScenarioNd,
     plot_path: Option<&str>,
@@ -285,20 +277,9 @@ where
             walls_fixed.push(fixed_rule(s.clone(), 0.4, scenario.t_end).wall_s);
         }
     }
-    let pair_ratios: Vec<f64> = walls_ours
-        .iter()
-        .zip(&walls_fixed)
-        .map(|(a, b)| a / b)
-        .collect();
-    let ratio_range = [
-        pair_ratios.iter().copied().fold(f64::INFINITY, f64::min),
-        pair_ratios
-            .iter()
-            .copied()
-            .fold(f64::NEG_INFINITY, f64::max),
-    ];
-    ours.wall_s = median(&mut walls_ours);
-    fixed.wall_s = median(&mut walls_fixed);
+    let ratio_range = repeats::ratio_range(&walls_ours, &walls_fixed);
+    ours.wall_s = repeats::median(&walls_ours);
+    fixed.wall_s = repeats::median(&walls_fixed);
     // The other rules of thumb, for the table (not plotted; one run each, so their
     // `wall_ratio` is against the controller's median from a single run of theirs).
     let others: Vec<(f64, History)> = [0.3, 0.5, 0.9]
@@ -370,10 +351,10 @@ fn main() -> ExitCode {
             },
             "--plot" => plot_path = it.next(),
             "--json" => as_json = true,
-            "--repeat" => match it.next().map(|n| n.parse::<usize>()) {
-                Some(Ok(n)) if n >= 1 => repeat = n,
-                _ => {
-                    eprintln!("error: --repeat needs a whole number of runs, at least 1");
+            "--repeat" => match repeats::parse_repeat(it.next()) {
+                Ok(n) => repeat = n,
+                Err(e) => {
+                    eprintln!("error: {e}");
                     return ExitCode::from(2);
                 }
             },

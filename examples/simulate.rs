@@ -1,7 +1,7 @@
 //! Runs a scenario of any dimension under mpm-dt's controller.
 //!
 //! ```text
-//! cargo run --release --example simulate -- --scenario FILE [--json] [--fixed-dt DT --steps K] [--compare]
+//! cargo run --release --example simulate -- --scenario FILE [--json] [--fixed-dt DT --steps K] [--compare [--repeat N]]
 //! ```
 //!
 //! * default: the controller (1D: `Controller::standard`; 2D/3D: the standard limits of
@@ -14,7 +14,10 @@
 //! * `--compare` (2D/3D): the same solver also runs to `t_end` with the fixed rules
 //!   `dt = α · min_a h_a/(c_p + |v_a|)` for α = 0.4 and 0.5, side by side in this process,
 //!   and prints each run's steps, wall time and final error, and `wall_ratio` (controlled
-//!   wall time over each fixed rule's).
+//!   wall time over each fixed rule's). The timed runs are repeated `--repeat N` times
+//!   (default 3), interleaved, the rules going first in every other repeat; each `wall_s`
+//!   is then the median of a policy's runs (`wall_s_runs`), `wall_ratio` the ratio of the
+//!   medians and `wall_ratio_of_pairs` the range of the ratios within each repeat.
 //!
 //!
 //! Built with the `mpi` feature it also runs 2D and 3D scenarios across MPI ranks, the
@@ -47,25 +50,28 @@ use std::rc::Rc;
 use std::time::Instant;
 
 const USAGE: &str =
-    "usage: simulate --scenario FILE [--json] [--fixed-dt DT --steps K] [--compare]";
+    "usage: simulate --scenario FILE [--json] [--fixed-dt DT --steps K] [--compare [--repeat N]]";
 
 struct Args {
     scenario: String,
     json: bool,
     fixed: Option<(f64, u64)>,
     compare: bool,
+    repeat: usize,
 }
 
 fn parse_args() -> Result<Option<Args>, String> {
     let mut scenario = None;
     let (mut json, mut compare) = (false, false);
     let (mut dt, mut steps) = (None, None);
+    let mut repeat = None;
     let mut it = std::env::args().skip(1);
     while let Some(a) = it.next() {
         match a.as_str() {
             "--help" | "-h" => return Ok(None),
             "--json" => json = true,
             "--compare" => compare = true,
+            "--repeat" => repeat = Some(common::repeats::parse_repeat(it.next())?),
             "--scenario" => scenario = Some(it.next().ok_or("--scenario needs a file")?),
             "--fixed-dt" => {
                 let v = it.next().ok_or("--fixed-dt needs a value")?;
@@ -96,11 +102,15 @@ fn parse_args() -> Result<Option<Args>, String> {
         _ => return Err("--fixed-dt and --steps go together".into()),
     };
     let scenario = scenario.ok_or("--scenario FILE is required")?;
+    if repeat.is_some() && !compare {
+        return Err("--repeat goes with --compare".into());
+    }
     Ok(Some(Args {
         scenario,
         json,
         fixed,
         compare,
+        repeat: repeat.unwrap_or(3),
     }))
 }
 
@@ -186,6 +196,49 @@ impl Ranks {
     }
 }
 
+/// The controller of a 2D/3D scenario: its standard limits with its gravity and its
+/// config, and the ranks' reductions on a split run.
+fn controller_for<const D: usize>(
+    scenario: &ScenarioNd,
+    config: ControllerConfig,
+    ranks: &Ranks,
+) -> Result<Controller<D>, String>
+where
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+{
+    let gravity = scenario
+        .gravity
+        .as_ref()
+        .map(|g| mpm_dt::nd::Vector::<D>::from_fn(|a, _| g[a]))
+        .unwrap_or_else(mpm_dt::nd::Vector::<D>::zeros);
+    let limits = standard_limits::<D>(&config, gravity);
+    let mut controller = Controller::<D>::new(config, limits).map_err(|e| e.to_string())?;
+    if let Some(r) = &ranks.reduce {
+        controller = controller.with_reduce(Rc::clone(r));
+    }
+    Ok(controller)
+}
+
+/// Wall time of one more controlled run of `template` to `t_end` (a repeat for
+/// `--compare`; the run is deterministic, only its time is new).
+fn timed_controller<const D: usize>(
+    template: &SolverNd<D>,
+    scenario: &ScenarioNd,
+    config: &ControllerConfig,
+    ranks: &Ranks,
+) -> Result<f64, String>
+where
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+{
+    let mut s = template.clone();
+    let mut controller = controller_for(scenario, config.clone(), ranks)?;
+    let start = Instant::now();
+    controller
+        .run_until(&mut s, scenario.t_end, &mut |_| {})
+        .map_err(|e| format!("a repeated controlled run failed: {e}"))?;
+    Ok(start.elapsed().as_secs_f64())
+}
+
 fn run_nd<const D: usize>(
     scenario: &ScenarioNd,
     args: &Args,
@@ -225,16 +278,7 @@ where
         return Ok(out);
     }
     let config: ControllerConfig = scenario.controller_config().map_err(|e| e.to_string())?;
-    let gravity = scenario
-        .gravity
-        .as_ref()
-        .map(|g| mpm_dt::nd::Vector::<D>::from_fn(|a, _| g[a]))
-        .unwrap_or_else(mpm_dt::nd::Vector::<D>::zeros);
-    let limits = standard_limits::<D>(&config, gravity);
-    let mut controller = Controller::<D>::new(config, limits).map_err(|e| e.to_string())?;
-    if let Some(r) = &ranks.reduce {
-        controller = controller.with_reduce(Rc::clone(r));
-    }
+    let mut controller = controller_for(scenario, config.clone(), ranks)?;
     let start = Instant::now();
     let mut last_rejection = None;
     let mut refreshes = (0.0, 0.0);
@@ -283,20 +327,50 @@ where
         out["reduce_s"] = json!((ranks.spent)());
     }
     if args.compare {
+        // Interleaved repeats: the controller's first run above, then each fixed rule; in
+        // every other repeat the rules go first (`common::repeats`). Every run is
+        // deterministic, so only the wall times differ between repeats (a controlled run
+        // that failed is not repeated).
+        let again = error.is_none();
+        let alphas = [0.4, 0.5];
+        let mut walls_ours = vec![wall];
+        let mut walls_rules: Vec<Vec<f64>> = vec![Vec::new(); alphas.len()];
+        let mut first_runs = Vec::new();
+        for k in 0..args.repeat {
+            let rules_first = k % 2 == 1;
+            if again && k > 0 && !rules_first {
+                walls_ours.push(timed_controller(&template, scenario, &config, ranks)?);
+            }
+            for (a, &alpha) in alphas.iter().enumerate() {
+                let run = common::fixed_rule_nd::run_alpha(template.clone(), alpha, scenario.t_end);
+                walls_rules[a].push(run.wall_s);
+                if k == 0 {
+                    first_runs.push(run);
+                }
+            }
+            if again && rules_first {
+                walls_ours.push(timed_controller(&template, scenario, &config, ranks)?);
+            }
+        }
+        let ours = common::repeats::median(&walls_ours);
+        out["wall_s"] = json!(ours);
+        out["wall_s_runs"] = json!(walls_ours);
         let mut rules = Vec::new();
-        for alpha in [0.4, 0.5] {
-            let run = common::fixed_rule_nd::run_alpha(template.clone(), alpha, scenario.t_end);
-            let (steps, w, blew_up) = (run.solver.step_count(), run.wall_s, run.blew_up.is_some());
+        for ((alpha, run), walls) in alphas.iter().zip(&first_runs).zip(&walls_rules) {
+            let (steps, blew_up) = (run.solver.step_count(), run.blew_up.is_some());
+            let w = common::repeats::median(walls);
             let err = wave
                 .as_ref()
                 .map(|wv| wv.velocity_error(&run.solver.view()));
             eprintln!(
-                "simulate: alpha {alpha}: {steps} steps, {w:.3} s, blew up {blew_up}, error {err:?}"
+                "simulate: alpha {alpha}: {steps} steps, {w:.3} s (median of {}), blew up {blew_up}, error {err:?}",
+                walls.len()
             );
-            rules.push(
-                json!({"alpha": alpha, "steps": steps, "wall_s": w, "blew_up": blew_up,
-                "velocity_error_linf": err, "wall_ratio": wall / w}),
-            );
+            rules.push(json!({
+                "alpha": alpha, "steps": steps, "wall_s": w, "wall_s_runs": walls,
+                "blew_up": blew_up, "velocity_error_linf": err, "wall_ratio": ours / w,
+                "wall_ratio_of_pairs": common::repeats::ratio_range(&walls_ours, walls),
+            }));
         }
         out["fixed_rules"] = json!(rules);
     }

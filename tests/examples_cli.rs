@@ -222,3 +222,55 @@ fn critical_dt_says_why_the_controller_step_is_null() {
     let skipped = v["skipped"].as_str().expect("skipped says why");
     assert!(skipped.contains("dt_controller"), "{skipped}");
 }
+
+#[test]
+fn simulate_compare_repeats_the_timed_runs_and_reports_medians() {
+    let v = run_json(
+        "simulate",
+        &[
+            "--scenario",
+            "scenarios/nd/plane_p_2d.json",
+            "--json",
+            "--compare",
+            "--repeat",
+            "2",
+        ],
+    );
+    let median2 = |runs: &serde_json::Value| {
+        let r: Vec<f64> = runs
+            .as_array()
+            .expect("wall_s_runs")
+            .iter()
+            .map(|x| x.as_f64().unwrap())
+            .collect();
+        assert_eq!(r.len(), 2, "two timed runs per policy");
+        0.5 * (r[0] + r[1])
+    };
+    let ours = median2(&v["wall_s_runs"]);
+    assert_eq!(v["wall_s"].as_f64(), Some(ours));
+    let rules = v["fixed_rules"].as_array().expect("fixed_rules");
+    assert_eq!(rules.len(), 2);
+    for r in rules {
+        let theirs = median2(&r["wall_s_runs"]);
+        assert_eq!(r["wall_s"].as_f64(), Some(theirs));
+        assert_eq!(r["wall_ratio"].as_f64(), Some(ours / theirs));
+        let pairs = r["wall_ratio_of_pairs"].as_array().expect("range");
+        let (lo, hi) = (pairs[0].as_f64().unwrap(), pairs[1].as_f64().unwrap());
+        assert!(lo > 0.0 && lo <= hi, "{lo} {hi}");
+    }
+}
+
+#[test]
+fn simulate_repeat_needs_compare_and_a_positive_count() {
+    for args in [
+        &["--repeat", "2"][..],
+        &["--compare", "--repeat", "0"][..],
+        &["--compare", "--repeat", "two"][..],
+    ] {
+        let mut all = vec!["--scenario", "scenarios/nd/plane_p_2d.json"];
+        all.extend_from_slice(args);
+        let out = run("simulate", &all);
+        assert_eq!(out.status.code(), Some(2), "{args:?}");
+        assert!(String::from_utf8_lossy(&out.stderr).contains("--repeat"));
+    }
+}

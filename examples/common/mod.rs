@@ -7,6 +7,7 @@
 pub mod fixed_rule_nd;
 pub mod history;
 pub mod plot;
+pub mod repeats;
 
 use mpm_dt::scenario::Scenario;
 use mpm_dt::View;
