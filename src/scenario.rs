@@ -50,12 +50,15 @@
 
 use crate::controller::ControllerConfig;
 use crate::grid::{Boundary, Grid};
-use crate::mpm::{Material, ParticleInit, ReferenceStepper, SetupError};
+use crate::mpm::{Material, ParticleInit, ReferenceStepper};
 use crate::problems::{uniform_positions, StandingWave};
 use crate::shape::Shape;
-use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
-use std::path::{Path, PathBuf};
+use std::path::Path;
+
+mod error;
+pub use error::ScenarioError;
+use error::{invalid, take};
 
 /// Most cells a scenario may ask for (guards against accidental huge allocations).
 pub const MAX_CELLS: usize = 100_000_000;
@@ -167,77 +170,6 @@ impl Default for Scenario {
             controller: None,
         }
     }
-}
-
-/// Why a scenario could not be loaded or built.
-#[derive(Clone, Debug, PartialEq, thiserror::Error)]
-#[non_exhaustive]
-pub enum ScenarioError {
-    /// The file could not be read.
-    #[error("cannot read scenario {path:?}: {message}")]
-    Io {
-        /// The file.
-        path: PathBuf,
-        /// The I/O error.
-        message: String,
-    },
-    /// The text is not a JSON object.
-    #[error("scenario is not a JSON object (line {line}, column {column}): {message}")]
-    Syntax {
-        /// Line of the error (1-based; 0 if unknown).
-        line: usize,
-        /// Column of the error (1-based; 0 if unknown).
-        column: usize,
-        /// The parser's message.
-        message: String,
-    },
-    /// A field the format does not have (at the top level, or nested: the message of a
-    /// nested error names it).
-    #[error("unknown scenario field `{field}`")]
-    UnknownField {
-        /// The field's name.
-        field: String,
-    },
-    /// A field whose value has the wrong type or shape (including unknown nested fields).
-    #[error("scenario field `{field}`: {reason}")]
-    Type {
-        /// The field.
-        field: &'static str,
-        /// The parser's message.
-        reason: String,
-    },
-    /// A field whose value is not allowed.
-    #[error("invalid scenario field `{field}`: {reason}")]
-    Invalid {
-        /// The field (`"cells"`, `"particles.positions"`, …).
-        field: &'static str,
-        /// Why.
-        reason: String,
-    },
-    /// The solver rejected the particle data (should not happen after validation).
-    #[error(transparent)]
-    Setup(#[from] SetupError),
-}
-
-fn invalid(field: &'static str, reason: impl Into<String>) -> ScenarioError {
-    ScenarioError::Invalid {
-        field,
-        reason: reason.into(),
-    }
-}
-
-fn take<T: DeserializeOwned>(
-    obj: &mut serde_json::Map<String, serde_json::Value>,
-    field: &'static str,
-    into: &mut T,
-) -> Result<(), ScenarioError> {
-    if let Some(value) = obj.remove(field) {
-        *into = serde_json::from_value(value).map_err(|e| ScenarioError::Type {
-            field,
-            reason: e.to_string(),
-        })?;
-    }
-    Ok(())
 }
 
 impl Scenario {
