@@ -232,6 +232,7 @@ fn config() -> impl Strategy<Value = ControllerConfig> {
                 factor: g.4,
                 floor: g.5,
                 safety_factor: g.6,
+                min_safety_scale: 0.5 * g.6,
                 energy_confirm: g.5,
             },
             // The standard limits: present or left out, with in-range settings.

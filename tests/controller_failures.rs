@@ -2,6 +2,7 @@
 //! looping, retrying what a smaller step cannot cure, or dropping attempts from the log.
 
 use mpm_dt::controller::{Controller, ControllerConfig, ControllerError, Decision, Outcome};
+use mpm_dt::limit::{Judgement, LimitError, Proposal, RejectCause, Verdict};
 use mpm_dt::mpm::ReferenceStepper;
 use mpm_dt::scenario::Scenario;
 use mpm_dt::stability::{SoundSpeed, SoundSpeedConfig};
@@ -162,4 +163,79 @@ fn error_messages_print_numbers_short() {
     let msg = step.to_string();
     assert!(msg.len() < 120, "{msg}");
     assert!(msg.contains("2e200") && msg.contains("1e-200"), "{msg}");
+}
+
+/// A limit that reports growing energy on every other trial (a scheme the limits do not
+/// keep stable at any step), and accepts the others.
+struct GrowsEveryOtherTrial {
+    trials: u32,
+}
+
+impl StepLimit for GrowsEveryOtherTrial {
+    fn name(&self) -> &str {
+        "grows"
+    }
+    fn propose(&mut self, _state: &View<'_>) -> Result<Proposal, LimitError> {
+        Ok(Proposal::no_opinion())
+    }
+    fn judge(&mut self, _b: &View<'_>, _a: &View<'_>, _dt: f64) -> Result<Judgement, LimitError> {
+        self.trials += 1;
+        let verdict = if self.trials % 2 == 1 {
+            Verdict::Reject {
+                cause: RejectCause::Growth,
+                suggested_dt: None,
+            }
+        } else {
+            Verdict::Accept
+        };
+        Ok(Judgement {
+            verdict,
+            metrics: Default::default(),
+        })
+    }
+}
+
+#[test]
+fn growth_that_persists_ends_the_run_instead_of_shrinking_the_step_for_ever() {
+    // The reference solver itself, not misbehaving.
+    let mut s = faulty(Fault::KeepsTime).inner;
+    let mut config = ControllerConfig::default();
+    config.growth.min_safety_scale = 0.5;
+    let mut limits = sound();
+    limits.push(Box::new(GrowsEveryOtherTrial { trials: 0 }));
+    let mut c = Controller::new(config, limits).unwrap();
+    let err = c.run_until(&mut s, 1.0, &mut |_| {}).unwrap_err();
+    // 0.9⁶ = 0.53 ≥ 0.5 > 0.9⁷: the seventh detection stops the run, after six accepted
+    // steps, with the stepper on the last accepted state.
+    let ControllerError::GrowthPersists {
+        t,
+        step,
+        detections,
+        safety_scale,
+        min_safety_scale,
+    } = err
+    else {
+        panic!("expected GrowthPersists, got {err}");
+    };
+    assert_eq!((detections, step), (7, 6));
+    assert!(
+        (safety_scale - 0.9f64.powi(6)).abs() < 1e-12,
+        "{safety_scale}"
+    );
+    assert_eq!(min_safety_scale, 0.5);
+    assert_eq!(s.step_count(), 6);
+    assert_eq!(s.time().to_bits(), t.to_bits());
+    assert_eq!(c.stats().growth_events, 7);
+    let msg = err.to_string();
+    assert!(
+        msg.contains("min_safety_scale") && msg.contains("detected 7 times"),
+        "{msg}"
+    );
+
+    // The floor is validated; 0 never stops.
+    for bad in [1.0, -0.1, f64::NAN] {
+        let mut config = ControllerConfig::default();
+        config.growth.min_safety_scale = bad;
+        assert!(Controller::new(config, sound()).is_err(), "{bad}");
+    }
 }

@@ -382,6 +382,18 @@ where
                     }
                     if c == RejectCause::Growth {
                         let f = self.config.growth.safety_factor;
+                        let floor = self.config.growth.min_safety_scale;
+                        if self.state.safety_scale * f < floor {
+                            // The energy keeps growing however far the safety is lowered:
+                            // stop with the reason rather than crawl on ever smaller steps.
+                            return Err(ControllerError::GrowthPersists {
+                                t,
+                                step,
+                                detections: self.state.stats.growth_events,
+                                safety_scale: self.state.safety_scale,
+                                min_safety_scale: floor,
+                            });
+                        }
                         for limit in self.limits.iter_mut() {
                             limit.scale_safety(f);
                         }

@@ -25,6 +25,25 @@ pub enum ControllerError {
         /// The last decision.
         last: Box<Decision>,
     },
+    /// The growth monitor kept detecting growing energy: one more detection would lower the
+    /// stability safety below `growth.min_safety_scale` ([`super::GrowthConfig`]). The
+    /// limits' steps are then far below what they claim is stable and the energy still
+    /// grows: the scheme is unstable for a reason they do not model, or energy is supplied
+    /// to the run (a driven boundary) that the monitor does not count. The last trial was
+    /// rejected; the stepper holds the last accepted state.
+    #[error("the energy kept growing: growth detected {detections} times (t = {}, step {step}); the stability safety is down to {} of its start and one more reduction would go below growth.min_safety_scale = {}. The run is unstable at every step the limits propose, or energy is supplied to it that the growth monitor does not count (disable `growth` if that is expected)", Num(*t), Num(*safety_scale), Num(*min_safety_scale))]
+    GrowthPersists {
+        /// Time of the committed state.
+        t: f64,
+        /// Accepted steps before it.
+        step: u64,
+        /// Growth detections so far (rejections with cause `growth`, this one included).
+        detections: u64,
+        /// The factor the safety has been lowered by so far.
+        safety_scale: f64,
+        /// The configured floor.
+        min_safety_scale: f64,
+    },
     /// The step would fall below `dt_min`, or be too small to advance `t` in floating
     /// point (below 64 ulps of `t`).
     #[error("step {} too small (dt_min = {}) at t = {} (bound by {binding})", Num(*dt), Num(*dt_min), Num(*t))]

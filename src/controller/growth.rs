@@ -76,6 +76,13 @@ pub struct GrowthConfig {
     pub floor: f64,
     /// Factor applied to the stability safety on detection (default 0.9, in (0, 1)).
     pub safety_factor: f64,
+    /// Lowest factor the detections may lower the safety to, in `[0, 1)` (default 0.1,
+    /// reached after 22 detections at the default `safety_factor`): a detection that would
+    /// go below it ends the run with [`super::ControllerError::GrowthPersists`] instead of
+    /// letting it crawl on ever smaller steps. Stale or frozen-particle `λmax` estimates
+    /// are off by tens of per cent (a safety of 0.5 covers them); a run still growing at a
+    /// tenth of its proposed steps is not one the limits control. `0` never stops.
+    pub min_safety_scale: f64,
     /// With the checkerboard indicator, a detection also needs the total energy (the
     /// [`GrowthIndicator::Energy`] value) to confirm it: its maximum over the last of the
     /// compared windows must exceed that over the first by this relative amount (default
@@ -93,6 +100,7 @@ impl Default for GrowthConfig {
             factor: 1.5,
             floor: 1e-10,
             safety_factor: 0.9,
+            min_safety_scale: 0.1,
             energy_confirm: 0.01,
         }
     }
@@ -130,6 +138,12 @@ impl GrowthConfig {
             self.energy_confirm,
             self.energy_confirm.is_finite() && self.energy_confirm >= 0.0,
             "finite and >= 0",
+        )?;
+        check(
+            "growth.min_safety_scale",
+            self.min_safety_scale,
+            (0.0..1.0).contains(&self.min_safety_scale),
+            "in [0, 1)",
         )?;
         check(
             "growth.safety_factor",
