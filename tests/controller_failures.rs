@@ -222,7 +222,7 @@ fn growth_that_persists_ends_the_run_instead_of_shrinking_the_step_for_ever() {
         (safety_scale - 0.9f64.powi(6)).abs() < 1e-12,
         "{safety_scale}"
     );
-    assert_eq!(min_safety_scale, 0.5);
+    assert_eq!(min_safety_scale.to_bits(), 0.5f64.to_bits());
     assert_eq!(s.step_count(), 6);
     assert_eq!(s.time().to_bits(), t.to_bits());
     assert_eq!(c.stats().growth_events, 7);
