@@ -59,6 +59,12 @@
 //! - `energy_drift = (E_final − E_0)/E_0`, `E = kinetic + strain energy` (relative).
 //! - `dt_mean = final_time / steps` (accepted steps).
 //!
+//! `--repeat N` times every policy's run `N` times (default 1), interleaved (mpm-dt first in
+//! every other repeat); `wall_seconds` is then the median of `wall_seconds_runs`, and the
+//! JSON's `wall_ratio_of_pairs` (and a line per rule in the table) gives the range of the
+//! ratios within each repeat. Single runs of a few seconds vary by several per cent on a
+//! shared machine; the runs are deterministic, so only their times differ.
+//!
 //! Human table on stdout by default; `--json` prints one JSON document on stdout instead.
 //! Logs go to stderr (`RUST_LOG` filters them, default `warn`).
 //!
@@ -95,7 +101,7 @@ const ENERGY_GROWTH: f64 = 10.0;
 const ALPHAS: [f64; 4] = [0.3, 0.4, 0.5, 0.9];
 
 const USAGE: &str = "usage: compare --scenario FILE [--json] \
-[--tracking certified|lanczos|lanczos-cached] [--alpha A,B,...] [--no-matched]";
+[--tracking certified|lanczos|lanczos-cached] [--alpha A,B,...] [--no-matched] [--repeat N]";
 
 /// Command-line options.
 struct Args {
@@ -107,6 +113,8 @@ struct Args {
     alphas: Vec<f64>,
     /// Whether to search the fixed rule with mpm-dt's step count (`--no-matched`: not).
     matched: bool,
+    /// Timed runs per policy (`--repeat`, default 1; module docs).
+    repeat: usize,
 }
 
 fn parse_args() -> Result<Args, String> {
@@ -115,6 +123,7 @@ fn parse_args() -> Result<Args, String> {
     let mut tracking = None;
     let mut alphas = ALPHAS.to_vec();
     let mut matched = true;
+    let mut repeat = 1;
     let mut it = std::env::args().skip(1);
     while let Some(a) = it.next() {
         match a.as_str() {
@@ -141,6 +150,10 @@ fn parse_args() -> Result<Args, String> {
                     .collect::<Result<_, _>>()?;
             }
             "--no-matched" => matched = false,
+            "--repeat" => {
+                repeat =
+                    common::repeats::parse_repeat(it.next()).map_err(|e| format!("{e}\n{USAGE}"))?
+            }
             "-h" | "--help" => return Err(USAGE.into()),
             other => return Err(format!("unknown argument {other}\n{USAGE}")),
         }
@@ -151,6 +164,7 @@ fn parse_args() -> Result<Args, String> {
         tracking,
         alphas,
         matched,
+        repeat,
     })
 }
 
@@ -171,7 +185,10 @@ struct PolicyResult {
     /// The closing half step `ℓ` of the synchronisation.
     closing_half_step: f64,
     energy_drift: Option<f64>,
+    /// Wall time to the end: the median of `wall_seconds_runs`.
     wall_seconds: f64,
+    /// Every timed run of this policy (`--repeat`; one without it).
+    wall_seconds_runs: Vec<f64>,
     dt_mean: Option<f64>,
 }
 
@@ -235,6 +252,7 @@ impl Reference<'_> {
             closing_half_step: half_step,
             energy_drift: drift.is_finite().then_some(drift),
             wall_seconds,
+            wall_seconds_runs: vec![wall_seconds],
             dt_mean: (steps > 0).then(|| t / steps as f64),
         }
     }
@@ -357,7 +375,7 @@ fn main() -> ExitCode {
     };
     if let Ok(text) = std::fs::read_to_string(&args.scenario) {
         if matches!(mpm_dt::nd::scenario::ScenarioNd::dim_of(&text), Ok(2 | 3)) {
-            return match nd::compare(&args.scenario, &text, &args.alphas, args.json) {
+            return match nd::compare(&args.scenario, &text, &args.alphas, args.repeat, args.json) {
                 Ok(true) => ExitCode::SUCCESS,
                 Ok(false) => {
                     eprintln!("error: mpm-dt did not reach t_end");
@@ -406,6 +424,45 @@ fn main() -> ExitCode {
             return ExitCode::from(1);
         }
     }
+    // Interleaved repeats of the timed runs (`--repeat`): mpm-dt goes first in every other
+    // repeat; every run is deterministic, so only the wall times are kept.
+    let tracking = args.tracking.as_ref().map(|t| t.1);
+    for k in 1..args.repeat {
+        let again = |i: usize| match args.alphas.get(i) {
+            Some(&alpha) => run_fixed(&scenario, &reference, alpha),
+            None => run_controller(&scenario, &reference, tracking),
+        };
+        let n = results.len();
+        let order: Vec<usize> = if k % 2 == 1 {
+            (0..n).rev().collect()
+        } else {
+            (0..n).collect()
+        };
+        for i in order {
+            match again(i) {
+                Ok(r) => results[i].wall_seconds_runs.push(r.wall_seconds),
+                Err(e) => {
+                    eprintln!("error: {}: {e}", results[i].policy);
+                    return ExitCode::from(1);
+                }
+            }
+        }
+    }
+    for r in &mut results {
+        r.wall_seconds = common::repeats::median(&r.wall_seconds_runs);
+    }
+    let ours_runs = results
+        .last()
+        .map(|r| r.wall_seconds_runs.clone())
+        .unwrap_or_default();
+    let pair_ranges: Vec<(String, [f64; 2])> = results
+        .iter()
+        .filter(|r| r.policy != "mpm-dt" && !r.blew_up && args.repeat > 1)
+        .map(|r| {
+            let range = common::repeats::ratio_range(&ours_runs, &r.wall_seconds_runs);
+            (r.policy.clone(), range)
+        })
+        .collect();
     // The fixed rule with mpm-dt's step count; a failure to find one is reported, not fatal.
     let mut same_count = Vec::new();
     if args.matched {
@@ -436,6 +493,11 @@ fn main() -> ExitCode {
             "policies": results,
             "ratios": ratios,
             "tracking": args.tracking.as_ref().map_or("scenario", |t| t.0.as_str()),
+            "repeats": args.repeat,
+            "wall_ratio_of_pairs": pair_ranges
+                .iter()
+                .map(|(against, range)| serde_json::json!({"against": against, "range": range}))
+                .collect::<Vec<_>>(),
             "matched_same_step_count": same_count
                 .iter()
                 .map(|&(alpha, error)| serde_json::json!({"alpha": alpha, "velocity_error_linf": error}))
@@ -444,6 +506,15 @@ fn main() -> ExitCode {
         println!("{doc}");
     } else {
         print_table(&args.scenario, &results, &ratios, large_amplitude);
+        if args.repeat > 1 {
+            println!(
+                "wall times: medians of {} interleaved runs per policy (the matched rule: one)",
+                args.repeat
+            );
+            for (against, [lo, hi]) in &pair_ranges {
+                println!("mpm-dt vs {against}: wall ratio within a repeat {lo:.3} … {hi:.3}");
+            }
+        }
         let errors: Vec<f64> = same_count.iter().filter_map(|&(_, e)| e).collect();
         if errors.len() > 1 {
             let lo = errors.iter().copied().fold(f64::INFINITY, f64::min);

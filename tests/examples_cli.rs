@@ -274,3 +274,43 @@ fn simulate_repeat_needs_compare_and_a_positive_count() {
         assert!(String::from_utf8_lossy(&out.stderr).contains("--repeat"));
     }
 }
+
+#[test]
+fn compare_repeat_times_every_policy_and_reports_medians() {
+    let v = run_json(
+        "compare",
+        &[
+            "--scenario",
+            "scenarios/vibrating_bar.json",
+            "--json",
+            "--no-matched",
+            "--alpha",
+            "0.4,0.5",
+            "--repeat",
+            "3",
+        ],
+    );
+    assert_eq!(v["repeats"].as_u64(), Some(3));
+    let policies = v["policies"].as_array().expect("policies");
+    assert_eq!(policies.len(), 3, "two rules and mpm-dt");
+    for p in policies {
+        let mut runs: Vec<f64> = p["wall_seconds_runs"]
+            .as_array()
+            .expect("wall_seconds_runs")
+            .iter()
+            .map(|x| x.as_f64().unwrap())
+            .collect();
+        assert_eq!(runs.len(), 3, "{}", p["policy"]);
+        runs.sort_by(f64::total_cmp);
+        assert_eq!(p["wall_seconds"].as_f64(), Some(runs[1]), "the median");
+    }
+    let pairs = v["wall_ratio_of_pairs"].as_array().expect("ranges");
+    assert_eq!(pairs.len(), 2);
+    for r in pairs {
+        let (lo, hi) = (
+            r["range"][0].as_f64().unwrap(),
+            r["range"][1].as_f64().unwrap(),
+        );
+        assert!(lo > 0.0 && lo <= hi, "{r}");
+    }
+}

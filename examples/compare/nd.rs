@@ -5,13 +5,16 @@
 //! or the energy above 10× its start; the fixed rules check the energy every 50 steps and
 //! at the end, so that their wall time is the rule's), the velocity error against the
 //! scenario's plane wave (`max_p |v_p − v(x_p, t)|∞/(A c)`), the energy drift, the wall
-//! time, the mean step; for the controller also `wall_ratio` against each fixed rule.
+//! time (the median of `--repeat` interleaved runs, `wall_s_runs`), the mean step; for the
+//! controller also `wall_ratio` against each fixed rule (with `wall_ratio_of_pairs`, the
+//! range within each repeat, when repeated).
 //! For layouts small enough (`limits_nd::critical::EMPIRICAL_LIMIT`) the empirical
 //! critical step of the layout at `t = 0` (bisection on fixed-step runs from a wave of
 //! amplitude `A = 10⁻²`, 4000 steps, `limits_nd::critical`) and the controller's mean step
 //! as a fraction of it.
 
 use crate::common::fixed_rule_nd::{energy_grew, run_alpha};
+use crate::common::repeats::{median, ratio_range};
 use mpm_dt::controller::Controller;
 use mpm_dt::limits_nd::critical::critical_table;
 use mpm_dt::limits_nd::standard_limits;
@@ -31,7 +34,10 @@ struct Run {
     t_final: f64,
     error: Option<f64>,
     energy_drift: f64,
+    /// The median of `wall_s_runs`.
     wall_s: f64,
+    /// Every timed run of the policy (`--repeat`).
+    wall_s_runs: Vec<f64>,
 }
 
 impl Run {
@@ -40,7 +46,7 @@ impl Run {
             "policy": self.policy, "steps": self.steps, "rejected": self.rejected,
             "blew_up": self.blew_up.is_some(), "why": self.blew_up, "t_final": self.t_final,
             "velocity_error_linf": self.error, "energy_drift": self.energy_drift,
-            "wall_s": self.wall_s,
+            "wall_s": self.wall_s, "wall_s_runs": self.wall_s_runs,
             "dt_mean": (self.steps > 0).then(|| self.t_final / self.steps as f64),
         })
     }
@@ -73,6 +79,7 @@ where
         energy_drift: (e - e0) / e0,
         blew_up,
         wall_s,
+        wall_s_runs: vec![wall_s],
     }
 }
 
@@ -120,7 +127,11 @@ where
     Ok(finish("mpm-dt".into(), &s, e0, wave, why, rejected, wall))
 }
 
-fn run<const D: usize>(scenario: &ScenarioNd, alphas: &[f64]) -> Result<Value, String>
+fn run<const D: usize>(
+    scenario: &ScenarioNd,
+    alphas: &[f64],
+    repeat: usize,
+) -> Result<Value, String>
 where
     Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
 {
@@ -133,18 +144,39 @@ where
         scenario.t_end
     );
     let table = critical_table(&s, Some((1e-2, 4000)));
-    let runs: Vec<Run> = alphas
+    let mut runs: Vec<Run> = alphas
         .iter()
         .map(|&a| fixed(s.clone(), a, scenario.t_end, wave.as_ref()))
         .collect();
-    let ours = controlled(s.clone(), scenario, wave.as_ref())?;
+    let mut ours = controlled(s.clone(), scenario, wave.as_ref())?;
+    // Interleaved repeats (`--repeat`): mpm-dt first in every other repeat; the runs are
+    // deterministic, only their wall times are kept.
+    for k in 1..repeat {
+        if k % 2 == 1 {
+            ours.wall_s_runs
+                .push(controlled(s.clone(), scenario, wave.as_ref())?.wall_s);
+        }
+        for (r, &a) in runs.iter_mut().zip(alphas) {
+            r.wall_s_runs
+                .push(fixed(s.clone(), a, scenario.t_end, wave.as_ref()).wall_s);
+        }
+        if k % 2 == 0 {
+            ours.wall_s_runs
+                .push(controlled(s.clone(), scenario, wave.as_ref())?.wall_s);
+        }
+    }
+    for r in runs.iter_mut().chain(std::iter::once(&mut ours)) {
+        r.wall_s = median(&r.wall_s_runs);
+    }
     let dt_mean = (ours.steps > 0).then(|| ours.t_final / ours.steps as f64);
     // Against a rule that blew up there is no time to the end to compare with: `null`.
     let wall_ratio: Vec<Value> = runs
         .iter()
         .map(|r| {
             let ratio = r.blew_up.is_none().then(|| ours.wall_s / r.wall_s);
-            json!({"against": r.policy, "wall_ratio": ratio})
+            let pairs = (r.blew_up.is_none() && repeat > 1)
+                .then(|| ratio_range(&ours.wall_s_runs, &r.wall_s_runs));
+            json!({"against": r.policy, "wall_ratio": ratio, "wall_ratio_of_pairs": pairs})
         })
         .collect();
     let doc = json!({
@@ -162,11 +194,17 @@ where
 
 /// Runs the comparison of the 2D/3D scenario in `text`; prints the JSON document or a
 /// table. `Ok(true)` when mpm-dt reached `t_end` without blowing up.
-pub fn compare(path: &str, text: &str, alphas: &[f64], as_json: bool) -> Result<bool, String> {
+pub fn compare(
+    path: &str,
+    text: &str,
+    alphas: &[f64],
+    repeat: usize,
+    as_json: bool,
+) -> Result<bool, String> {
     let scenario = ScenarioNd::from_json(text).map_err(|e| e.to_string())?;
     let doc = match scenario.dim {
-        2 => run::<2>(&scenario, alphas)?,
-        3 => run::<3>(&scenario, alphas)?,
+        2 => run::<2>(&scenario, alphas, repeat)?,
+        3 => run::<3>(&scenario, alphas, repeat)?,
         d => return Err(format!("not a 2D or 3D scenario ({d}D)")),
     };
     let policies = doc["policies"].as_array().cloned().unwrap_or_default();
@@ -221,8 +259,15 @@ pub fn compare(path: &str, text: &str, alphas: &[f64], as_json: bool) -> Result<
         let ratio = w["wall_ratio"]
             .as_f64()
             .map_or("- (the rule blew up)".into(), |r| format!("{r:.3}"));
+        let pairs = w["wall_ratio_of_pairs"]
+            .as_array()
+            .map(|r| {
+                let at = |i: usize| r.get(i).and_then(Value::as_f64).unwrap_or(f64::NAN);
+                format!(" (within a repeat {:.3} … {:.3})", at(0), at(1))
+            })
+            .unwrap_or_default();
         println!(
-            "  wall_ratio mpm-dt / {} = {ratio}",
+            "  wall_ratio mpm-dt / {} = {ratio}{pairs}",
             w["against"].as_str().unwrap_or("?"),
         );
     }
