@@ -36,9 +36,10 @@
 //! usage errors exit with 2.
 
 mod common;
+#[path = "simulate/side_by_side.rs"]
+mod side_by_side;
 
 use mpm_dt::controller::{Controller, ControllerConfig, Stats};
-use mpm_dt::limits_nd::standard_limits;
 use mpm_dt::nd::scenario::ScenarioNd;
 use mpm_dt::nd::SolverNd;
 use mpm_dt::reduce::Reduce;
@@ -196,49 +197,6 @@ impl Ranks {
     }
 }
 
-/// The controller of a 2D/3D scenario: its standard limits with its gravity and its
-/// config, and the ranks' reductions on a split run.
-fn controller_for<const D: usize>(
-    scenario: &ScenarioNd,
-    config: ControllerConfig,
-    ranks: &Ranks,
-) -> Result<Controller<D>, String>
-where
-    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
-{
-    let gravity = scenario
-        .gravity
-        .as_ref()
-        .map(|g| mpm_dt::nd::Vector::<D>::from_fn(|a, _| g[a]))
-        .unwrap_or_else(mpm_dt::nd::Vector::<D>::zeros);
-    let limits = standard_limits::<D>(&config, gravity);
-    let mut controller = Controller::<D>::new(config, limits).map_err(|e| e.to_string())?;
-    if let Some(r) = &ranks.reduce {
-        controller = controller.with_reduce(Rc::clone(r));
-    }
-    Ok(controller)
-}
-
-/// Wall time of one more controlled run of `template` to `t_end` (a repeat for
-/// `--compare`; the run is deterministic, only its time is new).
-fn timed_controller<const D: usize>(
-    template: &SolverNd<D>,
-    scenario: &ScenarioNd,
-    config: &ControllerConfig,
-    ranks: &Ranks,
-) -> Result<f64, String>
-where
-    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
-{
-    let mut s = template.clone();
-    let mut controller = controller_for(scenario, config.clone(), ranks)?;
-    let start = Instant::now();
-    controller
-        .run_until(&mut s, scenario.t_end, &mut |_| {})
-        .map_err(|e| format!("a repeated controlled run failed: {e}"))?;
-    Ok(start.elapsed().as_secs_f64())
-}
-
 fn run_nd<const D: usize>(
     scenario: &ScenarioNd,
     args: &Args,
@@ -278,7 +236,8 @@ where
         return Ok(out);
     }
     let config: ControllerConfig = scenario.controller_config().map_err(|e| e.to_string())?;
-    let mut controller = controller_for(scenario, config.clone(), ranks)?;
+    let mut controller =
+        common::controller_nd::controller_for(scenario, config.clone(), ranks.reduce.as_ref())?;
     let start = Instant::now();
     let mut last_rejection = None;
     let mut refreshes = (0.0, 0.0);
@@ -327,52 +286,18 @@ where
         out["reduce_s"] = json!((ranks.spent)());
     }
     if args.compare {
-        // Interleaved repeats: the controller's first run above, then each fixed rule; in
-        // every other repeat the rules go first (`common::repeats`). Every run is
-        // deterministic, so only the wall times differ between repeats (a controlled run
-        // that failed is not repeated).
-        let again = error.is_none();
-        let alphas = [0.4, 0.5];
-        let mut walls_ours = vec![wall];
-        let mut walls_rules: Vec<Vec<f64>> = vec![Vec::new(); alphas.len()];
-        let mut first_runs = Vec::new();
-        for k in 0..args.repeat {
-            let rules_first = k % 2 == 1;
-            if again && k > 0 && !rules_first {
-                walls_ours.push(timed_controller(&template, scenario, &config, ranks)?);
-            }
-            for (a, &alpha) in alphas.iter().enumerate() {
-                let run = common::fixed_rule_nd::run_alpha(template.clone(), alpha, scenario.t_end);
-                walls_rules[a].push(run.wall_s);
-                if k == 0 {
-                    first_runs.push(run);
-                }
-            }
-            if again && rules_first {
-                walls_ours.push(timed_controller(&template, scenario, &config, ranks)?);
-            }
-        }
-        let ours = common::repeats::median(&walls_ours);
-        out["wall_s"] = json!(ours);
-        out["wall_s_runs"] = json!(walls_ours);
-        let mut rules = Vec::new();
-        for ((alpha, run), walls) in alphas.iter().zip(&first_runs).zip(&walls_rules) {
-            let (steps, blew_up) = (run.solver.step_count(), run.blew_up.is_some());
-            let w = common::repeats::median(walls);
-            let err = wave
-                .as_ref()
-                .map(|wv| wv.velocity_error(&run.solver.view()));
-            eprintln!(
-                "simulate: alpha {alpha}: {steps} steps, {w:.3} s (median of {}), blew up {blew_up}, error {err:?}",
-                walls.len()
-            );
-            rules.push(json!({
-                "alpha": alpha, "steps": steps, "wall_s": w, "wall_s_runs": walls,
-                "blew_up": blew_up, "velocity_error_linf": err, "wall_ratio": ours / w,
-                "wall_ratio_of_pairs": common::repeats::ratio_range(&walls_ours, walls),
-            }));
-        }
-        out["fixed_rules"] = json!(rules);
+        let reached = error.is_none();
+        let timed = side_by_side::fixed_rules(
+            &template,
+            scenario,
+            &config,
+            wave.as_ref(),
+            (wall, reached),
+            args.repeat,
+        )?;
+        out["wall_s"] = json!(timed.ours_median);
+        out["wall_s_runs"] = json!(timed.ours_runs);
+        out["fixed_rules"] = timed.rules;
     }
     Ok(out)
 }

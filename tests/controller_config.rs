@@ -194,6 +194,7 @@ fn config() -> impl Strategy<Value = ControllerConfig> {
             1.01f64..10.0,
             0.0f64..1e-3,
             0.1f64..0.99,
+            prop_oneof![Just(0.0), 0.0f64..1.0],
         ),
     )
         .prop_map(|(a, b, filter, t, g)| ControllerConfig {
@@ -232,7 +233,7 @@ fn config() -> impl Strategy<Value = ControllerConfig> {
                 factor: g.4,
                 floor: g.5,
                 safety_factor: g.6,
-                min_safety_scale: 0.5 * g.6,
+                min_safety_scale: g.7,
                 energy_confirm: g.5,
             },
             // The standard limits: present or left out, with in-range settings.

@@ -239,3 +239,59 @@ fn growth_that_persists_ends_the_run_instead_of_shrinking_the_step_for_ever() {
         assert!(Controller::new(config, sound()).is_err(), "{bad}");
     }
 }
+
+/// The reductions of a run on two processes, seen from the one whose growth monitor is
+/// quiet: the other process reports, at every trial, a growth detection that takes its
+/// safety below the floor (the third flag of the verdict's agreement).
+#[derive(Debug)]
+struct OtherProcessGrowthPersists;
+
+impl mpm_dt::reduce::Reduce for OtherProcessGrowthPersists {
+    fn rank(&self) -> usize {
+        0
+    }
+    fn size(&self) -> usize {
+        2
+    }
+    fn min_and_any(&self, value: f64, flag: bool) -> (f64, bool) {
+        (value, flag)
+    }
+    fn any_flags(&self, flags: &mut [bool]) {
+        // [fatal, rejected, growth past the floor]: the other process rejected, for good.
+        if let [_, rejected, stop] = flags {
+            *rejected = true;
+            *stop = true;
+        }
+    }
+    fn sum(&self, _values: &mut [f64]) {}
+    fn exchange(
+        &self,
+        _to: Option<usize>,
+        from: Option<usize>,
+        _tag: u16,
+        send: &[f64],
+    ) -> Option<Vec<f64>> {
+        from.map(|_| send.to_vec())
+    }
+}
+
+#[test]
+fn every_process_stops_when_growth_persists_on_one() {
+    let mut s = faulty(Fault::KeepsTime).inner;
+    let mut c = Controller::new(ControllerConfig::default(), sound())
+        .unwrap()
+        .with_reduce(std::rc::Rc::new(OtherProcessGrowthPersists));
+    let mut seen = Vec::new();
+    let err = c
+        .run_until(&mut s, 1.0, &mut |d| seen.push(d.clone()))
+        .unwrap_err();
+    // This process's trial was fine; it stops with the other at once (no retry, whose
+    // agreement the other process would never join), on its committed state.
+    assert!(
+        matches!(err, ControllerError::OtherRank { phase, .. } if phase == "with growth persisting"),
+        "{err}"
+    );
+    assert_eq!(seen.len(), 1, "the one attempt is logged");
+    assert_eq!(seen[0].outcome, Outcome::Rejected);
+    assert_eq!((s.step_count(), s.time().to_bits()), (0, 0.0f64.to_bits()));
+}

@@ -4,6 +4,7 @@
 // Each example uses a part of this module.
 #![allow(dead_code)]
 
+pub mod controller_nd;
 pub mod fixed_rule_nd;
 pub mod history;
 pub mod plot;

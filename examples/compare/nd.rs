@@ -15,12 +15,10 @@
 
 use crate::common::fixed_rule_nd::{energy_grew, run_alpha};
 use crate::common::repeats::{median, ratio_range};
-use mpm_dt::controller::Controller;
 use mpm_dt::limits_nd::critical::critical_table;
-use mpm_dt::limits_nd::standard_limits;
 use mpm_dt::nd::problems::PlaneWave;
 use mpm_dt::nd::scenario::ScenarioNd;
-use mpm_dt::nd::{SolverNd, Vector};
+use mpm_dt::nd::SolverNd;
 use mpm_dt::{Dim, Dimension, Stepper, ViewNd};
 use serde_json::{json, Value};
 use std::time::Instant;
@@ -110,13 +108,7 @@ where
 {
     let e0 = s.total_energy();
     let config = scenario.controller_config().map_err(|e| e.to_string())?;
-    let gravity = scenario
-        .gravity
-        .as_ref()
-        .map(|g| Vector::<D>::from_fn(|a, _| g[a]))
-        .unwrap_or_else(Vector::<D>::zeros);
-    let limits = standard_limits::<D>(&config, gravity);
-    let mut controller = Controller::<D>::new(config, limits).map_err(|e| e.to_string())?;
+    let mut controller = crate::common::controller_nd::controller_for::<D>(scenario, config, None)?;
     let start = Instant::now();
     let why = controller
         .run_until(&mut s, scenario.t_end, &mut |_| {})

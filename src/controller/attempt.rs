@@ -300,7 +300,13 @@ where
             }
             // 4. The processes agree on the verdict: any fatal failure ends the run
             // everywhere, any rejection rejects everywhere.
-            let mut flags = [fatal.is_some(), cause.is_some()];
+            // A growth detection that would take the safety below its floor ends the run
+            // (`GrowthConfig::min_safety_scale`); agreed with the rest, so that every
+            // process stops at the same trial.
+            let growth_stop = cause == Some(RejectCause::Growth)
+                && self.state.safety_scale * self.config.growth.safety_factor
+                    < self.config.growth.min_safety_scale;
+            let mut flags = [fatal.is_some(), cause.is_some(), growth_stop];
             self.reduce.any_flags(&mut flags);
             if flags[0] {
                 stepper.reject();
@@ -380,20 +386,26 @@ where
                     for limit in self.limits.iter_mut() {
                         limit.rejected(dt, c);
                     }
-                    if c == RejectCause::Growth {
-                        let f = self.config.growth.safety_factor;
-                        let floor = self.config.growth.min_safety_scale;
-                        if self.state.safety_scale * f < floor {
-                            // The energy keeps growing however far the safety is lowered:
-                            // stop with the reason rather than crawl on ever smaller steps.
-                            return Err(ControllerError::GrowthPersists {
+                    if flags[2] {
+                        // The energy keeps growing however far the safety is lowered: stop
+                        // with the reason rather than crawl on ever smaller steps.
+                        return Err(if growth_stop {
+                            ControllerError::GrowthPersists {
                                 t,
                                 step,
                                 detections: self.state.stats.growth_events,
                                 safety_scale: self.state.safety_scale,
-                                min_safety_scale: floor,
-                            });
-                        }
+                                min_safety_scale: self.config.growth.min_safety_scale,
+                            }
+                        } else {
+                            ControllerError::OtherRank {
+                                t,
+                                phase: "with growth persisting",
+                            }
+                        });
+                    }
+                    if c == RejectCause::Growth {
+                        let f = self.config.growth.safety_factor;
                         for limit in self.limits.iter_mut() {
                             limit.scale_safety(f);
                         }

@@ -31,7 +31,7 @@ pub enum ControllerError {
     /// grows: the scheme is unstable for a reason they do not model, or energy is supplied
     /// to the run (a driven boundary) that the monitor does not count. The last trial was
     /// rejected; the stepper holds the last accepted state.
-    #[error("the energy kept growing: growth detected {detections} times (t = {}, step {step}); the stability safety is down to {} of its start and one more reduction would go below growth.min_safety_scale = {}. The run is unstable at every step the limits propose, or energy is supplied to it that the growth monitor does not count (disable `growth` if that is expected)", Num(*t), Num(*safety_scale), Num(*min_safety_scale))]
+    #[error("the energy kept growing: growth detected {detections} times (t = {}, step {step}); the stability safety is down to {} of its start and one more reduction would go below growth.min_safety_scale = {}. The run is unstable at every step the limits propose, or energy is supplied to it that the growth monitor does not count (disable `growth`, or set `growth.min_safety_scale` to 0, if that is expected)", Num(*t), Num(*safety_scale), Num(*min_safety_scale))]
     GrowthPersists {
         /// Time of the committed state.
         t: f64,
@@ -117,7 +117,8 @@ pub enum ControllerError {
     OtherRank {
         /// Time of the committed state.
         t: f64,
-        /// When: `"before its trial"` or `"in its trial"`.
+        /// When: `"before its trial"`, `"in its trial"`, or `"with growth persisting"`
+        /// (its growth monitor ended the run: [`ControllerError::GrowthPersists`]).
         phase: &'static str,
     },
     /// A checkpoint does not fit the controller's limits.

@@ -38,7 +38,9 @@
 //! with [`RejectCause::Growth`] and a suggested step `safety_factor · dt`; the controller then
 //! lowers the stability safety factor of every limit by `safety_factor` for the rest of the
 //! run ([`crate::limit::StepLimit::scale_safety`]) and logs it. The monitor's history is then
-//! cleared, so one growth episode triggers once.
+//! cleared, so one growth episode triggers once. A detection that would take the safety
+//! below [`GrowthConfig::min_safety_scale`] of its start ends the run instead
+//! ([`super::ControllerError::GrowthPersists`]).
 
 use super::config::{check, ConfigError};
 use crate::limit::{Judgement, LimitError, Metrics, Proposal, RejectCause, StepLimit, Verdict};
@@ -76,10 +78,11 @@ pub struct GrowthConfig {
     pub floor: f64,
     /// Factor applied to the stability safety on detection (default 0.9, in (0, 1)).
     pub safety_factor: f64,
-    /// Lowest factor the detections may lower the safety to, in `[0, 1)` (default 0.1,
-    /// reached after 22 detections at the default `safety_factor`): a detection that would
-    /// go below it ends the run with [`super::ControllerError::GrowthPersists`] instead of
-    /// letting it crawl on ever smaller steps. Stale or frozen-particle `λmax` estimates
+    /// Lowest factor the detections may lower the safety to, in `[0, 1)` (default 0.1): a
+    /// detection that would go below it ends the run with
+    /// [`super::ControllerError::GrowthPersists`] instead of letting it crawl on ever
+    /// smaller steps. At the default `safety_factor` the 21st detection lowers the safety
+    /// to 0.9²¹ ≈ 0.109 and the 22nd ends the run. Stale or frozen-particle `λmax` estimates
     /// are off by tens of per cent (a safety of 0.5 covers them); a run still growing at a
     /// tenth of its proposed steps is not one the limits control. `0` never stops.
     pub min_safety_scale: f64,

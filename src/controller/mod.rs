@@ -19,7 +19,9 @@
 //! [`ControllerConfig`]). A limit's proposal may still bind below `min_shrink`: `dt` never
 //! exceeds any limit's proposal. After `max_consecutive_rejections` rejections of one step
 //! the run ends with [`ControllerError::TooManyRejections`], carrying the last
-//! [`Decision`].
+//! [`Decision`]; a growth rejection that would lower the stability safety below
+//! `growth.min_safety_scale` of its start ends it with [`ControllerError::GrowthPersists`]
+//! (on every process of a distributed run at the same trial).
 //!
 //! The controller is generic over the dimension, `Controller<D>` (`D = 1` by default):
 //! it drives any `&mut dyn Stepper<D>` with `Box<dyn StepLimit<D>>` limits, and reads the

@@ -18,7 +18,9 @@
 //!   cleared, so the retry is judged on the step alone: one rejection per detection.
 //!
 //! On a growth rejection the controller lowers every limit's safety factor by
-//! `ControllerConfig::growth.safety_factor` for the rest of the run.
+//! `ControllerConfig::growth.safety_factor` for the rest of the run, and ends the run when
+//! it would fall below `growth.min_safety_scale` of its start
+//! ([`crate::controller::ControllerError::GrowthPersists`]).
 
 use crate::dimension::{Dim, Dimension};
 use crate::limit::{Judgement, LimitError, Metrics, RejectCause, StepLimit, Verdict};

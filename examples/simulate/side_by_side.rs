@@ -1,0 +1,104 @@
+//! `simulate --compare`: the 2D/3D controller and the fixed rules α = 0.4 and 0.5 timed side
+//! by side, in interleaved repeats (`--repeat`).
+
+use crate::common;
+use mpm_dt::controller::ControllerConfig;
+use mpm_dt::nd::problems::PlaneWave;
+use mpm_dt::nd::scenario::ScenarioNd;
+use mpm_dt::nd::SolverNd;
+use mpm_dt::{Dim, Dimension, Stepper, ViewNd};
+use serde_json::{json, Value};
+use std::time::Instant;
+
+/// Wall time of one more controlled run of `template` to `t_end` on one process (a repeat;
+/// the run is deterministic, only its time is new).
+fn timed_controller<const D: usize>(
+    template: &SolverNd<D>,
+    scenario: &ScenarioNd,
+    config: &ControllerConfig,
+) -> Result<f64, String>
+where
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+{
+    let mut s = template.clone();
+    let mut controller = common::controller_nd::controller_for(scenario, config.clone(), None)?;
+    let start = Instant::now();
+    controller
+        .run_until(&mut s, scenario.t_end, &mut |_| {})
+        .map_err(|e| format!("a repeated controlled run failed: {e}"))?;
+    Ok(start.elapsed().as_secs_f64())
+}
+
+/// The timed runs of `--compare`.
+pub struct SideBySide {
+    /// The controller's wall times: its first run (the one `simulate` reports, whose
+    /// callback also reads the refresh counts), then its repeats.
+    pub ours_runs: Vec<f64>,
+    /// Their median.
+    pub ours_median: f64,
+    /// One JSON object per fixed rule: steps, error, median wall time and its runs,
+    /// `wall_ratio` (medians) and `wall_ratio_of_pairs` (the range within each repeat);
+    /// both ratios `null` when the controlled run did not reach `t_end`.
+    pub rules: Value,
+}
+
+/// Runs the fixed rules α = 0.4 and 0.5 from `template` to `t_end` and repeats the timed
+/// runs: repeat 0 is the controller's run already made (`(wall, reached)`: its time and
+/// whether it reached `t_end`) then the rules; in every other repeat the rules go first
+/// (`common::repeats`). A controlled run that did not reach `t_end` is not repeated, and
+/// the rules then run once.
+pub fn fixed_rules<const D: usize>(
+    template: &SolverNd<D>,
+    scenario: &ScenarioNd,
+    config: &ControllerConfig,
+    wave: Option<&PlaneWave<D>>,
+    (wall, reached): (f64, bool),
+    repeat: usize,
+) -> Result<SideBySide, String>
+where
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+{
+    let repeat = if reached { repeat } else { 1 };
+    let alphas = [0.4, 0.5];
+    let mut ours_runs = vec![wall];
+    let mut walls_rules: Vec<Vec<f64>> = vec![Vec::new(); alphas.len()];
+    let mut first_runs = Vec::new();
+    for k in 0..repeat {
+        let rules_first = k % 2 == 1;
+        if k > 0 && !rules_first {
+            ours_runs.push(timed_controller(template, scenario, config)?);
+        }
+        for (a, &alpha) in alphas.iter().enumerate() {
+            let run = common::fixed_rule_nd::run_alpha(template.clone(), alpha, scenario.t_end);
+            walls_rules[a].push(run.wall_s);
+            if k == 0 {
+                first_runs.push(run);
+            }
+        }
+        if rules_first {
+            ours_runs.push(timed_controller(template, scenario, config)?);
+        }
+    }
+    let ours_median = common::repeats::median(&ours_runs);
+    let mut rules = Vec::new();
+    for ((alpha, run), walls) in alphas.iter().zip(&first_runs).zip(&walls_rules) {
+        let (steps, blew_up) = (run.solver.step_count(), run.blew_up.is_some());
+        let w = common::repeats::median(walls);
+        let err = wave.map(|wv| wv.velocity_error(&run.solver.view()));
+        eprintln!(
+            "simulate: alpha {alpha}: {steps} steps, {w:.3} s (median of {}), blew up {blew_up}, error {err:?}",
+            walls.len()
+        );
+        rules.push(json!({
+            "alpha": alpha, "steps": steps, "wall_s": w, "wall_s_runs": walls,
+            "blew_up": blew_up, "velocity_error_linf": err,
+            "wall_ratio": reached.then(|| ours_median / w),
+            "wall_ratio_of_pairs": reached.then(|| common::repeats::ratio_range(&ours_runs, walls)),
+        }));
+    }
+    Ok(SideBySide {
+        ours_runs,
+        ours_median,
+        rules: json!(rules),
+    })
+}
