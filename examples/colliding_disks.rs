@@ -266,17 +266,15 @@ where
     let mut fixed = fixed_rule(s.clone(), 0.4, scenario.t_end);
     // Interleaved repeats of the two timed policies: the median wall time of each, and the
     // range of the ratios of the pairs.
-    let (mut walls_ours, mut walls_fixed) = (vec![ours.wall_s], vec![fixed.wall_s]);
-    for k in 1..repeat {
-        // Each policy goes first in every other pair.
-        if k % 2 == 1 {
-            walls_fixed.push(fixed_rule(s.clone(), 0.4, scenario.t_end).wall_s);
-            walls_ours.push(controlled(s.clone(), scenario).wall_s);
+    let mut walls = [vec![ours.wall_s], vec![fixed.wall_s]];
+    let _: Result<(), ()> = repeats::more_rounds(&mut walls, repeat, |i| {
+        Ok(if i == 0 {
+            controlled(s.clone(), scenario).wall_s
         } else {
-            walls_ours.push(controlled(s.clone(), scenario).wall_s);
-            walls_fixed.push(fixed_rule(s.clone(), 0.4, scenario.t_end).wall_s);
-        }
-    }
+            fixed_rule(s.clone(), 0.4, scenario.t_end).wall_s
+        })
+    });
+    let [walls_ours, walls_fixed] = walls;
     let ratio_range = repeats::ratio_range(&walls_ours, &walls_fixed);
     ours.wall_s = repeats::median(&walls_ours);
     fixed.wall_s = repeats::median(&walls_fixed);

@@ -427,26 +427,21 @@ fn main() -> ExitCode {
     // Interleaved repeats of the timed runs (`--repeat`): mpm-dt goes first in every other
     // repeat; every run is deterministic, so only the wall times are kept.
     let tracking = args.tracking.as_ref().map(|t| t.1);
-    for k in 1..args.repeat {
-        let again = |i: usize| match args.alphas.get(i) {
+    let mut walls: Vec<Vec<f64>> = results.iter().map(|r| vec![r.wall_seconds]).collect();
+    let timed = common::repeats::more_rounds(&mut walls, args.repeat, |i| {
+        match args.alphas.get(i) {
             Some(&alpha) => run_fixed(&scenario, &reference, alpha),
             None => run_controller(&scenario, &reference, tracking),
-        };
-        let n = results.len();
-        let order: Vec<usize> = if k % 2 == 1 {
-            (0..n).rev().collect()
-        } else {
-            (0..n).collect()
-        };
-        for i in order {
-            match again(i) {
-                Ok(r) => results[i].wall_seconds_runs.push(r.wall_seconds),
-                Err(e) => {
-                    eprintln!("error: {}: {e}", results[i].policy);
-                    return ExitCode::from(1);
-                }
-            }
         }
+        .map(|r| r.wall_seconds)
+        .map_err(|e| format!("{}: {e}", results[i].policy))
+    });
+    if let Err(e) = timed {
+        eprintln!("error: {e}");
+        return ExitCode::from(1);
+    }
+    for (r, w) in results.iter_mut().zip(walls) {
+        r.wall_seconds_runs = w;
     }
     for r in &mut results {
         r.wall_seconds = common::repeats::median(&r.wall_seconds_runs);

@@ -33,3 +33,22 @@ pub fn parse_repeat(v: Option<String>) -> Result<usize, String> {
         _ => Err(format!("--repeat: not a count of at least 1: {v}")),
     }
 }
+
+/// The repeats after a first round the caller has made: `walls[i]` holds policy `i`'s
+/// first wall time; rounds `1..repeat` time every policy again (`time(i)`, its wall time
+/// in seconds) in reverse order for odd rounds and in order for even ones, so that each
+/// policy goes first in every other round, and push onto `walls[i]`.
+pub fn more_rounds<E>(
+    walls: &mut [Vec<f64>],
+    repeat: usize,
+    mut time: impl FnMut(usize) -> Result<f64, E>,
+) -> Result<(), E> {
+    let n = walls.len();
+    for k in 1..repeat {
+        for j in 0..n {
+            let i = if k % 2 == 1 { n - 1 - j } else { j };
+            walls[i].push(time(i)?);
+        }
+    }
+    Ok(())
+}

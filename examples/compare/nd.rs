@@ -14,7 +14,7 @@
 //! as a fraction of it.
 
 use crate::common::fixed_rule_nd::{energy_grew, run_alpha};
-use crate::common::repeats::{median, ratio_range};
+use crate::common::repeats::{median, more_rounds, ratio_range};
 use mpm_dt::limits_nd::critical::critical_table;
 use mpm_dt::nd::problems::PlaneWave;
 use mpm_dt::nd::scenario::ScenarioNd;
@@ -143,19 +143,17 @@ where
     let mut ours = controlled(s.clone(), scenario, wave.as_ref())?;
     // Interleaved repeats (`--repeat`): mpm-dt first in every other repeat; the runs are
     // deterministic, only their wall times are kept.
-    for k in 1..repeat {
-        if k % 2 == 1 {
-            ours.wall_s_runs
-                .push(controlled(s.clone(), scenario, wave.as_ref())?.wall_s);
-        }
-        for (r, &a) in runs.iter_mut().zip(alphas) {
-            r.wall_s_runs
-                .push(fixed(s.clone(), a, scenario.t_end, wave.as_ref()).wall_s);
-        }
-        if k % 2 == 0 {
-            ours.wall_s_runs
-                .push(controlled(s.clone(), scenario, wave.as_ref())?.wall_s);
-        }
+    let mut walls: Vec<Vec<f64>> = runs
+        .iter()
+        .chain(std::iter::once(&ours))
+        .map(|r| vec![r.wall_s])
+        .collect();
+    more_rounds(&mut walls, repeat, |i| match alphas.get(i) {
+        Some(&a) => Ok(fixed(s.clone(), a, scenario.t_end, wave.as_ref()).wall_s),
+        None => controlled(s.clone(), scenario, wave.as_ref()).map(|r| r.wall_s),
+    })?;
+    for (r, w) in runs.iter_mut().chain(std::iter::once(&mut ours)).zip(walls) {
+        r.wall_s_runs = w;
     }
     for r in runs.iter_mut().chain(std::iter::once(&mut ours)) {
         r.wall_s = median(&r.wall_s_runs);

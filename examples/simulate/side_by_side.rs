@@ -60,25 +60,24 @@ where
 {
     let repeat = if reached { repeat } else { 1 };
     let alphas = [0.4, 0.5];
-    let mut ours_runs = vec![wall];
-    let mut walls_rules: Vec<Vec<f64>> = vec![Vec::new(); alphas.len()];
-    let mut first_runs = Vec::new();
-    for k in 0..repeat {
-        let rules_first = k % 2 == 1;
-        if k > 0 && !rules_first {
-            ours_runs.push(timed_controller(template, scenario, config)?);
-        }
-        for (a, &alpha) in alphas.iter().enumerate() {
-            let run = common::fixed_rule_nd::run_alpha(template.clone(), alpha, scenario.t_end);
-            walls_rules[a].push(run.wall_s);
-            if k == 0 {
-                first_runs.push(run);
-            }
-        }
-        if rules_first {
-            ours_runs.push(timed_controller(template, scenario, config)?);
-        }
-    }
+    // Round 0: the controller's run already made, then the rules (their runs are kept).
+    let first_runs: Vec<_> = alphas
+        .iter()
+        .map(|&alpha| common::fixed_rule_nd::run_alpha(template.clone(), alpha, scenario.t_end))
+        .collect();
+    // Policy 0 is the controller, 1.. the rules.
+    let mut walls: Vec<Vec<f64>> = std::iter::once(vec![wall])
+        .chain(first_runs.iter().map(|r| vec![r.wall_s]))
+        .collect();
+    common::repeats::more_rounds(&mut walls, repeat, |i| match i {
+        0 => timed_controller(template, scenario, config),
+        i => Ok(
+            common::fixed_rule_nd::run_alpha(template.clone(), alphas[i - 1], scenario.t_end)
+                .wall_s,
+        ),
+    })?;
+    let ours_runs = walls.remove(0);
+    let walls_rules = walls;
     let ours_median = common::repeats::median(&ours_runs);
     let mut rules = Vec::new();
     for ((alpha, run), walls) in alphas.iter().zip(&first_runs).zip(&walls_rules) {
