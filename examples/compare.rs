@@ -42,7 +42,8 @@
 //! For `mpm-dt` a controller error (e.g. too many rejections) also counts as a blow-up.
 //!
 //! Reported per policy: `policy, steps, rejected, blew_up, final_time, velocity_error_linf,
-//! velocity_error_linf_raw, closing_half_step, energy_drift, wall_seconds, dt_mean`:
+//! velocity_error_linf_raw, closing_half_step, energy_drift, wall_seconds, wall_seconds_runs,
+//! dt_mean`:
 //! - `velocity_error_linf = max_p |v_sync,p − v_exact(X_p, t_final)|` (the ∞-norm over
 //!   particles, `X_p` the particle's initial position) against the scenario's standing-wave
 //!   solution, for the **synchronised velocity** `v_sync,p = v_p + ℓ Σ_i S_ip a_i`
@@ -61,8 +62,10 @@
 //!
 //! `--repeat N` times every policy's run `N` times (default 1), interleaved (mpm-dt first in
 //! every other repeat); `wall_seconds` is then the median of `wall_seconds_runs`, and the
-//! JSON's `wall_ratio_of_pairs` (and a line per rule in the table) gives the range of the
-//! ratios within each repeat. Single runs of a few seconds vary by several per cent on a
+//! JSON's `wall_ratio_of_pairs` (a list of `{against, range}`; in 2D/3D a
+//! `wall_ratio_of_pairs` beside each `wall_ratio` entry, and `wall_s`/`wall_s_runs` per
+//! policy) and a line per rule in the table give the range of the ratios within each
+//! repeat. An mpm-dt run that blew up is not repeated and has no wall ratio. Single runs of a few seconds vary by several per cent on a
 //! shared machine; the runs are deterministic, so only their times differ.
 //!
 //! Human table on stdout by default; `--json` prints one JSON document on stdout instead.
@@ -74,6 +77,8 @@
 //! fraction of it (the matched-α search and `--tracking` are 1D only). Exit status 1 when
 //! mpm-dt blew up there.
 
+#[path = "compare/args.rs"]
+mod args;
 mod common;
 #[path = "compare/matched.rs"]
 mod matched;
@@ -85,88 +90,18 @@ mod report;
 use mpm_dt::controller::Controller;
 use mpm_dt::mpm::ReferenceStepper;
 use mpm_dt::scenario::Scenario;
-use mpm_dt::stability::{Refresh, SoundSpeed, SoundSpeedConfig, Tracking};
+use mpm_dt::stability::{SoundSpeed, SoundSpeedConfig, Tracking};
 use mpm_dt::{closing_half_step, Stepper};
 use serde::Serialize;
 use std::process::ExitCode;
 use std::time::Instant;
 
+use args::parse_args;
 use matched::run_matched;
 use report::{print_table, ratios};
 
 /// Energy growth factor that counts as a blow-up (the empirical protocol's default).
 const ENERGY_GROWTH: f64 = 10.0;
-
-/// The fixed multipliers compared by default.
-const ALPHAS: [f64; 4] = [0.3, 0.4, 0.5, 0.9];
-
-const USAGE: &str = "usage: compare --scenario FILE [--json] \
-[--tracking certified|lanczos|lanczos-cached] [--alpha A,B,...] [--no-matched] [--repeat N]";
-
-/// Command-line options.
-struct Args {
-    scenario: String,
-    json: bool,
-    /// How the stability limit tracks λmax (`--tracking`; `None` keeps the scenario's).
-    tracking: Option<(String, Tracking)>,
-    /// The fixed multipliers (`--alpha`, default [`ALPHAS`]).
-    alphas: Vec<f64>,
-    /// Whether to search the fixed rule with mpm-dt's step count (`--no-matched`: not).
-    matched: bool,
-    /// Timed runs per policy (`--repeat`, default 1; module docs).
-    repeat: usize,
-}
-
-fn parse_args() -> Result<Args, String> {
-    let mut scenario = None;
-    let mut json = false;
-    let mut tracking = None;
-    let mut alphas = ALPHAS.to_vec();
-    let mut matched = true;
-    let mut repeat = 1;
-    let mut it = std::env::args().skip(1);
-    while let Some(a) = it.next() {
-        match a.as_str() {
-            "--scenario" => scenario = Some(it.next().ok_or("--scenario needs a value")?),
-            "--json" => json = true,
-            "--tracking" => {
-                let mode = it.next().ok_or("--tracking needs a value")?;
-                let t = match mode.as_str() {
-                    "certified" => Tracking::default(),
-                    "lanczos" => Tracking::Lanczos(Refresh::every_step()),
-                    "lanczos-cached" => Tracking::Lanczos(Refresh::cached()),
-                    other => return Err(format!("unknown tracking {other}\n{USAGE}")),
-                };
-                tracking = Some((mode, t));
-            }
-            "--alpha" => {
-                let list = it.next().ok_or("--alpha needs a value")?;
-                alphas = list
-                    .split(',')
-                    .map(|a| match a.trim().parse::<f64>() {
-                        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
-                        _ => Err(format!("--alpha: {a:?} is not a positive number\n{USAGE}")),
-                    })
-                    .collect::<Result<_, _>>()?;
-            }
-            "--no-matched" => matched = false,
-            "--repeat" => {
-                repeat =
-                    common::repeats::parse_repeat(it.next()).map_err(|e| format!("{e}\n{USAGE}"))?
-            }
-            "-h" | "--help" => return Err(USAGE.into()),
-            other => return Err(format!("unknown argument {other}\n{USAGE}")),
-        }
-    }
-    Ok(Args {
-        scenario: scenario.ok_or(format!("--scenario is required\n{USAGE}"))?,
-        json,
-        tracking,
-        alphas,
-        matched,
-        repeat,
-    })
-}
 
 /// One policy's result.
 #[derive(Debug, Serialize)]
@@ -427,8 +362,11 @@ fn main() -> ExitCode {
     // Interleaved repeats of the timed runs (`--repeat`): mpm-dt goes first in every other
     // repeat; every run is deterministic, so only the wall times are kept.
     let tracking = args.tracking.as_ref().map(|t| t.1);
+    // An mpm-dt run that blew up is not repeated (and has no wall ratio, `report::ratios`).
+    let reached = results.last().is_some_and(|r| !r.blew_up);
+    let repeat = if reached { args.repeat } else { 1 };
     let mut walls: Vec<Vec<f64>> = results.iter().map(|r| vec![r.wall_seconds]).collect();
-    let timed = common::repeats::more_rounds(&mut walls, args.repeat, |i| {
+    let timed = common::repeats::more_rounds(&mut walls, repeat, |i| {
         match args.alphas.get(i) {
             Some(&alpha) => run_fixed(&scenario, &reference, alpha),
             None => run_controller(&scenario, &reference, tracking),
@@ -452,7 +390,7 @@ fn main() -> ExitCode {
         .unwrap_or_default();
     let pair_ranges: Vec<(String, [f64; 2])> = results
         .iter()
-        .filter(|r| r.policy != "mpm-dt" && !r.blew_up && args.repeat > 1)
+        .filter(|r| r.policy != "mpm-dt" && !r.blew_up && reached && repeat > 1)
         .map(|r| {
             let range = common::repeats::ratio_range(&ours_runs, &r.wall_seconds_runs);
             (r.policy.clone(), range)
@@ -488,7 +426,7 @@ fn main() -> ExitCode {
             "policies": results,
             "ratios": ratios,
             "tracking": args.tracking.as_ref().map_or("scenario", |t| t.0.as_str()),
-            "repeats": args.repeat,
+            "repeats": repeat,
             "wall_ratio_of_pairs": pair_ranges
                 .iter()
                 .map(|(against, range)| serde_json::json!({"against": against, "range": range}))
@@ -501,10 +439,9 @@ fn main() -> ExitCode {
         println!("{doc}");
     } else {
         print_table(&args.scenario, &results, &ratios, large_amplitude);
-        if args.repeat > 1 {
+        if repeat > 1 {
             println!(
-                "wall times: medians of {} interleaved runs per policy (the matched rule: one)",
-                args.repeat
+                "wall times: medians of {repeat} interleaved runs per policy (the matched rule: one)"
             );
             for (against, [lo, hi]) in &pair_ranges {
                 println!("mpm-dt vs {against}: wall ratio within a repeat {lo:.3} … {hi:.3}");

@@ -29,8 +29,10 @@
 //! Exit status 0 when the run reached `t_end`, 1 when it ended with an error, 2 on bad
 //! arguments.
 
-use mpm_dt::controller::{Controller, Outcome};
-use mpm_dt::limits_nd::standard_limits;
+#[path = "common/controller_nd.rs"]
+mod controller_nd;
+
+use mpm_dt::controller::Outcome;
 use mpm_dt::nd::scenario::ScenarioNd;
 use mpm_dt::nd::Vector;
 use mpm_dt::reduce::{MpiReduce, Reduce, Timed};
@@ -106,10 +108,8 @@ where
     let mut n_total = [solver.n_particles() as f64];
     shared.sum(&mut n_total);
     let config = scenario.controller_config().map_err(|e| e.to_string())?;
-    let limits = standard_limits::<D>(&config, Vector::<D>::zeros());
-    let mut controller = Controller::<D>::new(config, limits)
-        .map_err(|e| e.to_string())?
-        .with_reduce(Rc::clone(&shared));
+    // The scenario's gravity goes to the growth monitor's energy.
+    let mut controller = controller_nd::controller_for::<D>(scenario, config, Some(&shared))?;
     let t_end = args.t_end.unwrap_or(scenario.t_end);
     let start = Instant::now();
     let mut dts: Vec<String> = Vec::new();

@@ -17,7 +17,9 @@
 //!   wall time over each fixed rule's). The timed runs are repeated `--repeat N` times
 //!   (default 3), interleaved, the rules going first in every other repeat; each `wall_s`
 //!   is then the median of a policy's runs (`wall_s_runs`), `wall_ratio` the ratio of the
-//!   medians and `wall_ratio_of_pairs` the range of the ratios within each repeat.
+//!   medians and `wall_ratio_of_pairs` the range of the ratios within each repeat. A
+//!   controlled run that does not reach `t_end` is not repeated, the rules run once, and
+//!   both ratios are `null`.
 //!
 //!
 //! Built with the `mpi` feature it also runs 2D and 3D scenarios across MPI ranks, the

@@ -314,3 +314,34 @@ fn compare_repeat_times_every_policy_and_reports_medians() {
         assert!(lo > 0.0 && lo <= hi, "{r}");
     }
 }
+
+#[test]
+fn simulate_compare_does_not_repeat_or_compare_a_failed_controlled_run() {
+    // The controller cannot take a step as large as dt_min: it stops at once.
+    let text = std::fs::read_to_string("scenarios/nd/plane_p_2d.json").unwrap();
+    let mut v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    v["controller"] = serde_json::json!({"dt_min": 0.4});
+    let path = scenario_file("failing_2d.json", &v.to_string());
+    let out = run(
+        "simulate",
+        &[
+            "--scenario",
+            path.to_str().unwrap(),
+            "--json",
+            "--compare",
+            "--repeat",
+            "3",
+        ],
+    );
+    assert_eq!(out.status.code(), Some(1));
+    let doc: serde_json::Value = serde_json::from_slice(&out.stdout).expect("the summary");
+    assert_eq!(doc["blew_up"], serde_json::Value::Bool(true));
+    assert_eq!(doc["wall_s_runs"].as_array().map(Vec::len), Some(1));
+    for r in doc["fixed_rules"].as_array().expect("the rules still run") {
+        assert_eq!(r["wall_s_runs"].as_array().map(Vec::len), Some(1));
+        assert!(
+            r["wall_ratio"].is_null() && r["wall_ratio_of_pairs"].is_null(),
+            "{r}"
+        );
+    }
+}

@@ -36,8 +36,10 @@ pub fn parse_repeat(v: Option<String>) -> Result<usize, String> {
 
 /// The repeats after a first round the caller has made: `walls[i]` holds policy `i`'s
 /// first wall time; rounds `1..repeat` time every policy again (`time(i)`, its wall time
-/// in seconds) in reverse order for odd rounds and in order for even ones, so that each
-/// policy goes first in every other round, and push onto `walls[i]`.
+/// in seconds) in reverse order for odd rounds and in order for even ones, and push onto
+/// `walls[i]`. The order reverses every round: the first and last policies take turns
+/// going first (the callers put the controller at one end), and every policy's mean
+/// position over two rounds is the same.
 pub fn more_rounds<E>(
     walls: &mut [Vec<f64>],
     repeat: usize,

@@ -148,6 +148,9 @@ where
         .chain(std::iter::once(&ours))
         .map(|r| vec![r.wall_s])
         .collect();
+    // A controlled run that blew up is not repeated, and has no wall ratio.
+    let reached = ours.blew_up.is_none();
+    let repeat = if reached { repeat } else { 1 };
     more_rounds(&mut walls, repeat, |i| match alphas.get(i) {
         Some(&a) => Ok(fixed(s.clone(), a, scenario.t_end, wave.as_ref()).wall_s),
         None => controlled(s.clone(), scenario, wave.as_ref()).map(|r| r.wall_s),
@@ -163,8 +166,8 @@ where
     let wall_ratio: Vec<Value> = runs
         .iter()
         .map(|r| {
-            let ratio = r.blew_up.is_none().then(|| ours.wall_s / r.wall_s);
-            let pairs = (r.blew_up.is_none() && repeat > 1)
+            let ratio = (r.blew_up.is_none() && reached).then(|| ours.wall_s / r.wall_s);
+            let pairs = (r.blew_up.is_none() && reached && repeat > 1)
                 .then(|| ratio_range(&ours.wall_s_runs, &r.wall_s_runs));
             json!({"against": r.policy, "wall_ratio": ratio, "wall_ratio_of_pairs": pairs})
         })

@@ -52,8 +52,9 @@ pub(crate) fn ratios(results: &[PolicyResult]) -> Vec<Ratio> {
                 same_step_count: r.steps == ours.steps,
                 error_ratio: ratio(ours.velocity_error_linf, r.velocity_error_linf),
                 error_ratio_raw: ratio(ours.velocity_error_linf_raw, r.velocity_error_linf_raw),
-                // Against a rule that blew up there is no time to the end: `None`.
-                wall_ratio: (!r.blew_up)
+                // Against a rule that blew up, or when mpm-dt did, there is no time to the
+                // end to compare: `None`.
+                wall_ratio: (!r.blew_up && !ours.blew_up)
                     .then(|| ratio(Some(ours.wall_seconds), Some(r.wall_seconds)))
                     .flatten(),
             })

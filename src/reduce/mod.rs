@@ -8,8 +8,12 @@
 //! 1. the step: the minimum of the ranks' steps, and whether any rank failed before its
 //!    trial (a limit error, no admissible step) — one [`Reduce::min_and_any`];
 //! 2. the verdict: whether any rank's trial failed fatally, whether any rank rejected it
-//!    (a non-finite trial, a limit's veto) — one [`Reduce::any_flags`]; a rank that
-//!    accepted its own part rejects with [`RejectCause::OtherRank`](crate::limit::RejectCause);
+//!    (a non-finite trial, a limit's veto), and whether any rank's growth detection would
+//!    take its safety below `growth.min_safety_scale` — one [`Reduce::any_flags`]; a rank
+//!    that accepted its own part rejects with
+//!    [`RejectCause::OtherRank`](crate::limit::RejectCause), and on the last flag every
+//!    rank stops (the detecting ranks with `ControllerError::GrowthPersists`, the others
+//!    with `ControllerError::OtherRank`);
 //! 3. after a rejection, the retry step: the minimum of the ranks' retry steps.
 //!
 //! So every rank takes the same accepted steps and the same rejections, and a rank whose
