@@ -305,6 +305,13 @@ where
 }
 
 fn run_1d(text: &str, args: &Args) -> Result<Value, String> {
+    if args.compare {
+        return Err(
+            "--compare runs 2D/3D scenarios; for a 1D scenario use the compare example \
+             (`compare --scenario FILE --repeat N`)"
+                .into(),
+        );
+    }
     // The 1D format has no `dim`; drop an explicit `"dim": 1`.
     let mut value: Value = serde_json::from_str(text).map_err(|e| e.to_string())?;
     if let Some(o) = value.as_object_mut() {

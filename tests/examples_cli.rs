@@ -345,3 +345,14 @@ fn simulate_compare_does_not_repeat_or_compare_a_failed_controlled_run() {
         );
     }
 }
+
+#[test]
+fn simulate_compare_on_a_1d_scenario_says_where_to_go() {
+    let out = run(
+        "simulate",
+        &["--scenario", "scenarios/vibrating_bar.json", "--compare"],
+    );
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("--compare runs 2D/3D scenarios"), "{err}");
+}
