@@ -17,7 +17,7 @@
 
 use super::filter::FilterPreset;
 use super::growth::GrowthConfig;
-use super::temporal_error::TemporalErrorConfig;
+use super::temporal_config::TemporalErrorConfig;
 use crate::stability::{SoundSpeedConfig, StabilityConfig, StabilityError};
 use serde::{Deserialize, Serialize};
 

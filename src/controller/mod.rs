@@ -52,6 +52,7 @@ mod filter;
 mod growth;
 mod scaled;
 mod stats;
+mod temporal_config;
 mod temporal_error;
 mod temporal_kernels;
 
@@ -66,7 +67,8 @@ pub use growth::{
 pub(crate) use growth::{particle_energy, sum_energy_lanes, ENERGY_LANES};
 pub use scaled::SafetyScaled;
 pub use stats::Stats;
-pub use temporal_error::{TemporalError, TemporalErrorConfig, TEMPORAL_ERROR};
+pub use temporal_config::TemporalErrorConfig;
+pub use temporal_error::{TemporalError, TEMPORAL_ERROR};
 
 use crate::dimension::{Dim, Dimension};
 use crate::limit::StepLimit;

@@ -57,94 +57,15 @@
 //!   error far below the spatial one buys nothing (Steffen, Kirby & Berzins 2010) — and
 //!   `rtol` is the knob for long runs.
 
-use super::config::{check, ConfigError};
+use super::config::ConfigError;
 use super::decision::metric;
-use super::deferral::{Deferral, DeferredTrial, DEFAULT_MAX_DEFERRED};
+use super::deferral::{Deferral, DeferredTrial};
+use super::temporal_config::TemporalErrorConfig;
 use super::temporal_kernels::{dispatch_rates, dispatch_sums, Fields, Terms};
 use crate::limit::{Judgement, LimitError, Metrics, Proposal, RejectCause, StepLimit, Verdict};
 use crate::stepper::View;
 use crate::weights::WeightKind;
 use serde::{Deserialize, Serialize};
-
-/// Tolerances of [`TemporalError`]. Units: `atol_v` is a velocity, `atol_sigma` a stress;
-/// `rtol` and `atol_rel` are dimensionless.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct TemporalErrorConfig {
-    /// Whether [`super::Controller::with_default_limits`] installs the limit (default true).
-    pub enabled: bool,
-    /// Relative tolerance on each particle's value (default 0.05).
-    pub rtol: f64,
-    /// Tolerance relative to the field's largest magnitude `‖u‖_∞` (default 0.05).
-    pub atol_rel: f64,
-    /// Absolute velocity tolerance \[velocity\] (default 0).
-    pub atol_v: f64,
-    /// Absolute stress tolerance \[stress\] (default 0).
-    pub atol_sigma: f64,
-    /// Balancing factor κ (default `None`: off). When set, each particle's weights grow by
-    /// κ × the spatial local error of the same step from Section 4: `dt |Σ_i S_ip Ea_i|`
-    /// for the velocity (the spatial part of eqs 20/23, `Ea_i` by eq 33) and `|leσ_p|` of
-    /// eq 44 for the stress. The temporal error is then only required to stay below κ times
-    /// the spatial one where that is larger than the plain tolerance (Steffen, Kirby &
-    /// Berzins 2010: a temporal error far below the spatial one buys nothing).
-    pub balance: Option<f64>,
-    /// Trials in a row whose check may be deferred while the error is far below its
-    /// tolerance (default 8; [`super::deferral`]). 0 checks every trial, as the paper's
-    /// controller does.
-    pub max_deferred: u32,
-    /// Deferral threshold θ (default 0.1): a check is deferred only while the last measured
-    /// `dsm`, scaled by `(dt/dt_measured)²`, is at most θ.
-    pub defer_below: f64,
-}
-
-impl Default for TemporalErrorConfig {
-    fn default() -> Self {
-        Self {
-            enabled: true,
-            rtol: 0.05,
-            atol_rel: 0.05,
-            atol_v: 0.0,
-            atol_sigma: 0.0,
-            balance: None,
-            max_deferred: DEFAULT_MAX_DEFERRED,
-            defer_below: 0.1,
-        }
-    }
-}
-
-impl TemporalErrorConfig {
-    /// Checks the tolerances: all finite and non-negative, and not all zero.
-    pub fn validate(&self) -> Result<(), ConfigError> {
-        for (field, v) in [
-            ("temporal.rtol", self.rtol),
-            ("temporal.atol_rel", self.atol_rel),
-            ("temporal.atol_v", self.atol_v),
-            ("temporal.atol_sigma", self.atol_sigma),
-        ] {
-            check(field, v, v.is_finite() && v >= 0.0, "finite and >= 0")?;
-        }
-        if let Some(k) = self.balance {
-            check(
-                "temporal.balance",
-                k,
-                k.is_finite() && k > 0.0,
-                "finite and > 0",
-            )?;
-        }
-        check(
-            "temporal.defer_below",
-            self.defer_below,
-            (0.0..1.0).contains(&self.defer_below),
-            "in [0, 1)",
-        )?;
-        check(
-            "temporal.rtol",
-            self.rtol,
-            self.rtol + self.atol_rel > 0.0,
-            "> 0 when atol_rel = 0",
-        )
-    }
-}
 
 /// Rates of the last checked, accepted step, kept for the next estimate.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
