@@ -356,3 +356,10 @@ fn simulate_compare_on_a_1d_scenario_says_where_to_go() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("--compare runs 2D/3D scenarios"), "{err}");
 }
+
+#[test]
+fn mls_mpm_refuses_a_repeat_of_zero() {
+    let out = run("mls_mpm", &["--repeat", "0"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--repeat"));
+}

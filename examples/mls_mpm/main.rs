@@ -3,7 +3,7 @@
 //! jelly in place of its fluid.
 //!
 //! ```text
-//! cargo run --release --example mls_mpm -- [--grid N] [--t-end T] [--fixed-dt DT] [--find-failure] [--rules] [--fluid] [--eq56]
+//! cargo run --release --example mls_mpm -- [--grid N] [--t-end T] [--fixed-dt DT] [--find-failure] [--rules] [--fluid] [--eq56] [--repeat N]
 //! ```
 //!
 //! The scene: a box `[0, 1]²` of `N×N` cells (default 128) with walls three cells thick,
@@ -23,8 +23,14 @@
 //!   B-splines (`TransferNd::Apic { inertia: 0.25 }`: `D_p = h²/4`, a property of the
 //!   scheme): its limit is `√(2(1 + p)/λmax)` with `p` the transfer's Rayleigh quotient on
 //!   the top mode (`limits_nd::transfer`). `--eq56` analyses the paper's FLIP step instead
-//!   (`√(2/λmax)`), which is conservative for this scheme.
+//!   (`√(2/λmax)`), which is conservative for this scheme;
+//! * `--repeat N` times the fixed-step run and the controlled run `N` times, interleaved
+//!   (the controller first in every other round), and prints their median wall times, the
+//!   ratio of the medians and the range of the ratios within a round: single runs of a
+//!   second or two vary by several per cent on a shared machine.
 
+#[path = "../common/repeats.rs"]
+mod repeats;
 mod solver;
 
 use mpm_dt::controller::{Controller, ControllerConfig};
@@ -155,6 +161,8 @@ struct ControlledRun {
     dt_min: f64,
     wall_s: f64,
     error: Option<String>,
+    /// The λmax refreshes and what bound the steps, for the log.
+    refreshes: String,
 }
 
 /// The scene under mpm-dt's standard 2D limits (sound speed, eq 56 stability, growth),
@@ -187,6 +195,7 @@ fn run_controlled(scene: Scene) -> ControlledRun {
                 dt_min: f64::NAN,
                 wall_s: 0.0,
                 error: Some(e.to_string()),
+                refreshes: String::new(),
             }
         }
     };
@@ -204,8 +213,9 @@ fn run_controlled(scene: Scene) -> ControlledRun {
         })
         .err()
         .map(|e| e.to_string());
+    let wall_s = start.elapsed().as_secs_f64();
     let stats = controller.stats();
-    eprintln!(
+    let refreshes = format!(
         "  stability refreshes: {} (Lanczos products {}); steps bound by {:?}",
         refreshes.0, refreshes.1, stats.binding
     );
@@ -214,8 +224,9 @@ fn run_controlled(scene: Scene) -> ControlledRun {
         rejected: stats.rejected,
         dt_mean: stats.dt_mean().unwrap_or(f64::NAN),
         dt_min: stats.dt_min.unwrap_or(f64::NAN),
-        wall_s: start.elapsed().as_secs_f64(),
+        wall_s,
         error,
+        refreshes,
     }
 }
 
@@ -252,6 +263,7 @@ fn main() -> ExitCode {
     let mut fixed = None;
     let mut failure = false;
     let mut rules = false;
+    let mut repeat = 1;
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
         let mut value = |name: &str| -> Result<f64, String> {
@@ -280,8 +292,9 @@ fn main() -> ExitCode {
                 rules = true;
                 Ok(())
             }
+            "--repeat" => repeats::parse_repeat(args.next()).map(|n| repeat = n),
             "--help" | "-h" => {
-                println!("usage: mls_mpm [--grid N] [--t-end T] [--fixed-dt DT] [--find-failure] [--rules] [--fluid] [--eq56]");
+                println!("usage: mls_mpm [--grid N] [--t-end T] [--fixed-dt DT] [--find-failure] [--rules] [--fluid] [--eq56] [--repeat N]");
                 return ExitCode::SUCCESS;
             }
             other => Err(format!("unknown argument {other}")),
@@ -347,6 +360,7 @@ fn main() -> ExitCode {
         }
     }
     let c = run_controlled(scene);
+    eprintln!("{}", c.refreshes);
     println!(
         "mpm-dt controller: {} steps ({} rejected), mean dt {:.4e} s ({:.3} h/c_p), min dt {:.4e} s, {:.2} s wall, {}",
         c.steps,
@@ -357,6 +371,24 @@ fn main() -> ExitCode {
         c.wall_s,
         c.error.as_deref().unwrap_or("reached t_end")
     );
+    if repeat > 1 && c.error.is_none() && r.blew_up.is_none() {
+        // Round 0 was the two runs above; the rounds after it alternate their order.
+        let mut walls = [vec![r.wall_s], vec![c.wall_s]];
+        let _: Result<(), std::convert::Infallible> =
+            repeats::more_rounds(&mut walls, repeat, |i| {
+                Ok(if i == 0 {
+                    run_fixed(scene, dt).wall_s
+                } else {
+                    run_controlled(scene).wall_s
+                })
+            });
+        let (fixed_median, ours_median) = (repeats::median(&walls[0]), repeats::median(&walls[1]));
+        let [lo, hi] = repeats::ratio_range(&walls[1], &walls[0]);
+        println!(
+            "wall times over {repeat} interleaved runs: fixed dt median {fixed_median:.2} s, controller median {ours_median:.2} s, ratio {:.3} (within a round {lo:.3} … {hi:.3})",
+            ours_median / fixed_median
+        );
+    }
     if let Some((_, hi)) = failure_step {
         println!(
             "controller mean dt / failure step = {:.3}; steps against the fixed dt: {:.2}x fewer",
