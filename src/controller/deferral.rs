@@ -137,3 +137,50 @@ impl Deferral {
         self.left = self.left.min(max);
     }
 }
+
+/// A history of rates that carries the deferral schedule after its step (the 1D and the
+/// 2D/3D limits keep different rates, the same schedule).
+pub(crate) trait Scheduled {
+    /// The schedule after the history's step.
+    fn schedule(&mut self) -> &mut Deferral;
+}
+
+/// `accepted` of a limit for the trial it last judged: when that trial's check was
+/// `deferred` and it is the one accepted (started at `t`, step `dt`), the history stays,
+/// one step further back, and the deferred time is added to its gap. Returns whether it
+/// was so.
+pub(crate) fn spend_deferred<H: Scheduled>(
+    history: &mut Option<H>,
+    deferred: Option<DeferredTrial>,
+    t: f64,
+    dt: f64,
+) -> bool {
+    if !deferred.is_some_and(|d| d.is(t, dt)) {
+        return false;
+    }
+    if let Some(h) = history.as_mut() {
+        h.schedule().spend(dt);
+    }
+    true
+}
+
+/// After a checked, accepted step: `new` (that step's rates, its `dsm` in its schedule)
+/// becomes the history, with the schedule that follows the check
+/// ([`Deferral::after_check`]). Without it the old history is dropped — it would no longer
+/// be the last step's — so that the next estimate takes the first-step form. Returns the
+/// history replaced, whose arrays the caller reuses.
+pub(crate) fn install<H: Scheduled>(
+    history: &mut Option<H>,
+    new: Option<H>,
+    config: &TemporalErrorConfig,
+) -> Option<H> {
+    match new {
+        Some(mut h) => {
+            let previous = history.as_mut().map(|o| *o.schedule());
+            let dsm = h.schedule().dsm;
+            *h.schedule() = Deferral::after_check(previous, dsm, config);
+            history.replace(h)
+        }
+        None => history.take(),
+    }
+}

@@ -59,7 +59,7 @@
 
 use super::config::ConfigError;
 use super::decision::metric;
-use super::deferral::{Deferral, DeferredTrial};
+use super::deferral::{self, Deferral, DeferredTrial, Scheduled};
 use super::temporal_config::TemporalErrorConfig;
 use super::temporal_kernels::{dispatch_rates, dispatch_sums, Fields, Terms};
 use crate::limit::{Judgement, LimitError, Metrics, Proposal, RejectCause, StepLimit, Verdict};
@@ -79,6 +79,12 @@ struct History {
     /// ([`super::deferral`]).
     #[serde(default)]
     defer: Deferral,
+}
+
+impl Scheduled for History {
+    fn schedule(&mut self) -> &mut Deferral {
+        &mut self.defer
+    }
 }
 
 impl History {
@@ -380,11 +386,7 @@ impl StepLimit for TemporalError {
     }
 
     fn accepted(&mut self, before: &View<'_>, after: &View<'_>, dt: f64) {
-        // A deferred trial: the history stays, one step further back.
-        if self.deferred.take().is_some_and(|d| d.is(before.t, dt)) {
-            if let Some(h) = self.history.as_mut() {
-                h.defer.spend(dt);
-            }
+        if deferral::spend_deferred(&mut self.history, self.deferred.take(), before.t, dt) {
             return;
         }
         // Reuse the rates of the judged trial when it is this one (same start time and
@@ -411,17 +413,7 @@ impl StepLimit for TemporalError {
                 }
             }
         };
-        // Without this step's rates the old history would no longer be the last step's:
-        // dropped, so that the next estimate takes the first-step form.
-        let old = match new {
-            Some(mut h) => {
-                let previous = self.history.as_ref().map(|o| o.defer);
-                h.defer = Deferral::after_check(previous, h.defer.dsm, &self.config);
-                self.history.replace(h)
-            }
-            None => self.history.take(),
-        };
-        if let Some(old) = old {
+        if let Some(old) = deferral::install(&mut self.history, new, &self.config) {
             self.recycle(old);
         }
     }

@@ -65,7 +65,7 @@
 //! estimators are 1D; a configured `balance` is reported as an error, not ignored.
 
 use super::temporal_sweep::{sweep, History, Pairing, Weights, LEFT_OUT, NONE};
-use crate::controller::deferral::{Deferral, DeferredTrial};
+use crate::controller::deferral::{self, DeferredTrial};
 use crate::controller::{metric, TemporalErrorConfig, TEMPORAL_ERROR};
 use crate::dimension::{Dim, Dimension};
 use crate::limit::{Judgement, LimitError, Metrics, Proposal, RejectCause, StepLimit, Verdict};
@@ -363,11 +363,7 @@ where
     }
 
     fn accepted(&mut self, before: &ViewNd<'_, D>, after: &ViewNd<'_, D>, dt: f64) {
-        // A deferred trial: the history stays, one step further back.
-        if self.deferred.take().is_some_and(|d| d.is(before.t, dt)) {
-            if let Some(h) = self.history.as_mut() {
-                h.defer.spend(dt);
-            }
+        if deferral::spend_deferred(&mut self.history, self.deferred.take(), before.t, dt) {
             return;
         }
         // The judged trial's rates when it is this one, else recomputed.
@@ -392,17 +388,7 @@ where
                 }
             }
         };
-        // Without this step's rates the old history would be two steps old: dropped, so
-        // that the next estimate takes the first-step form.
-        let old = match new {
-            Some(mut h) => {
-                let previous = self.history.as_ref().map(|o| o.defer);
-                h.defer = Deferral::after_check(previous, h.defer.dsm, &self.config);
-                self.history.replace(h)
-            }
-            None => self.history.take(),
-        };
-        if let Some(old) = old {
+        if let Some(old) = deferral::install(&mut self.history, new, &self.config) {
             self.spare = Some(old);
         }
     }

@@ -2,7 +2,7 @@
 //! keeps, how trial particles find their committed state and history, and the sweep that
 //! forms the rates, the field-scale maxima and the sums of the scaled errors.
 
-use crate::controller::deferral::Deferral;
+use crate::controller::deferral::{Deferral, Scheduled};
 use crate::nd::{Tensor, Vector, ViewNd};
 use serde::{Deserialize, Serialize};
 
@@ -45,6 +45,12 @@ pub(super) struct Pairing<'h, const D: usize> {
     /// The history, when it describes these particles: its entries follow the committed
     /// order (it was the trial that became the committed state).
     pub history: Option<&'h History<D>>,
+}
+
+impl<const D: usize> Scheduled for History<D> {
+    fn schedule(&mut self) -> &mut Deferral {
+        &mut self.defer
+    }
 }
 
 impl<const D: usize> History<D> {
