@@ -25,8 +25,8 @@
 //!   the top mode (`limits_nd::transfer`). `--eq56` analyses the paper's FLIP step instead
 //!   (`√(2/λmax)`), which is conservative for this scheme;
 //! * `--repeat N` times the fixed-step run and the controlled run `N` times, interleaved
-//!   (the controller first in every other round), and prints their median wall times, the
-//!   ratio of the medians and the range of the ratios within a round: single runs of a
+//!   (the controller first in every other repeat), and prints their median wall times, the
+//!   ratio of the medians and the range of the ratios within a repeat: single runs of a
 //!   second or two vary by several per cent on a shared machine.
 
 #[path = "../common/repeats.rs"]
@@ -372,7 +372,7 @@ fn main() -> ExitCode {
         c.error.as_deref().unwrap_or("reached t_end")
     );
     if repeat > 1 && c.error.is_none() && r.blew_up.is_none() {
-        // Round 0 was the two runs above; the rounds after it alternate their order.
+        // The two runs above were the first repeat; the repeats after it alternate the order.
         let mut walls = [vec![r.wall_s], vec![c.wall_s]];
         let _: Result<(), std::convert::Infallible> =
             repeats::more_rounds(&mut walls, repeat, |i| {
@@ -385,7 +385,7 @@ fn main() -> ExitCode {
         let (fixed_median, ours_median) = (repeats::median(&walls[0]), repeats::median(&walls[1]));
         let [lo, hi] = repeats::ratio_range(&walls[1], &walls[0]);
         println!(
-            "wall times over {repeat} interleaved runs: fixed dt median {fixed_median:.2} s, controller median {ours_median:.2} s, ratio {:.3} (within a round {lo:.3} … {hi:.3})",
+            "wall times over {repeat} interleaved runs: fixed dt median {fixed_median:.2} s, controller median {ours_median:.2} s, ratio {:.3} (within a repeat {lo:.3} … {hi:.3})",
             ours_median / fixed_median
         );
     }
