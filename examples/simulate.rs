@@ -243,6 +243,7 @@ where
     let start = Instant::now();
     let mut last_rejection = None;
     let mut refreshes = (0.0, 0.0);
+    let mut bound_ratios = Vec::new();
     let run = controller.run_until(&mut s, scenario.t_end, &mut |d| {
         if d.outcome == mpm_dt::controller::Outcome::Rejected {
             last_rejection = Some(d.clone());
@@ -253,6 +254,7 @@ where
                 l.metrics.get("lanczos_applications"),
             ) {
                 refreshes = (r, a);
+                bound_ratios.extend(l.metrics.get("bound_ratio"));
             }
         }
     });
@@ -283,6 +285,15 @@ where
     out["error"] = json!(error);
     out["stability_refreshes"] = json!(refreshes.0);
     out["lanczos_applications"] = json!(refreshes.1);
+    // The element bound over the Lanczos value at the refreshes (min, median, max).
+    out["bound_ratio"] = match bound_ratios.iter().copied().reduce(f64::min) {
+        Some(lo) => json!([
+            lo,
+            common::repeats::median(&bound_ratios),
+            bound_ratios.iter().copied().fold(lo, f64::max)
+        ]),
+        None => json!(null),
+    };
     if ranks.reduce.is_some() {
         out["ranks"] = json!(ranks.size());
         out["reduce_s"] = json!((ranks.spent)());

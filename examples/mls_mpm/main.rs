@@ -3,7 +3,7 @@
 //! jelly in place of its fluid.
 //!
 //! ```text
-//! cargo run --release --example mls_mpm -- [--grid N] [--t-end T] [--fixed-dt DT] [--find-failure] [--rules] [--fluid] [--eq56] [--repeat N]
+//! cargo run --release --example mls_mpm -- [--grid N] [--t-end T] [--fixed-dt DT] [--find-failure] [--rules] [--fluid] [--eq56] [--generic] [--repeat N]
 //! ```
 //!
 //! The scene: a box `[0, 1]²` of `N×N` cells (default 128) with walls three cells thick,
@@ -29,9 +29,11 @@
 //!   ratio of the medians and the range of the ratios within a repeat: single runs of a
 //!   second or two vary by several per cent on a shared machine.
 
+mod model;
 #[path = "../common/repeats.rs"]
 mod repeats;
 mod solver;
+mod summary;
 
 use mpm_dt::controller::{Controller, ControllerConfig};
 use mpm_dt::limits_nd::{
@@ -57,6 +59,9 @@ struct Scene {
     /// The stability limit analyses the scheme's APIC transfer (the default), or the
     /// paper's FLIP step as eq 56 stands (`--eq56`) (`limits_nd::TransferNd`).
     apic: bool,
+    /// Whether the controlled run's solver hands the library its pass's totals (the
+    /// opt-in contract; `--generic` turns it off). Fixed-step runs never compute them.
+    summary: bool,
 }
 
 fn build(scene: Scene) -> MlsMpm {
@@ -82,7 +87,7 @@ fn build(scene: Scene) -> MlsMpm {
             poisson_ratio: 0.2,
         }
     };
-    MlsMpm::new(scene.n_grid, model, 1.0, Vector2::new(0.0, -9.8), x, v)
+    MlsMpm::new(scene.n_grid, model, 1.0, Vector2::new(0.0, -9.8), x, v).with_summary(scene.summary)
 }
 
 /// How a fixed-step run ended.
@@ -108,7 +113,10 @@ fn run_fixed(scene: Scene, dt: f64) -> FixedRun {
 /// A run whose every step is `rule(state)`, clamped to `t_end` (blow-up criteria as
 /// [`run_fixed`]).
 fn run_rule(scene: Scene, rule: &dyn Fn(&MlsMpm) -> Result<f64, String>) -> FixedRun {
-    let mut s = build(scene);
+    let mut s = build(Scene {
+        summary: false,
+        ..scene
+    });
     let budget = energy_budget(&s);
     // Only the rule and the step are timed, as the controlled run's `Controller::step`: the
     // blow-up checks below are the harness's.
@@ -200,6 +208,8 @@ fn run_controlled(scene: Scene) -> ControlledRun {
         }
     };
     let mut refreshes = (0.0, 0.0);
+    let mut ratios = Vec::new();
+    let mut on_bound = 0.0;
     let error = controller
         .run_until(&mut s, scene.t_end, &mut |d| {
             for l in &d.limits {
@@ -208,15 +218,29 @@ fn run_controlled(scene: Scene) -> ControlledRun {
                     l.metrics.get("lanczos_applications"),
                 ) {
                     refreshes = (r, a);
+                    ratios.extend(l.metrics.get("bound_ratio"));
                 }
+                on_bound = l
+                    .metrics
+                    .get("bound_proposals")
+                    .copied()
+                    .unwrap_or(on_bound);
             }
         })
         .err()
         .map(|e| e.to_string());
     let wall_s = start.elapsed().as_secs_f64();
     let stats = controller.stats();
+    let [lo, hi] = ratios.iter().fold([f64::INFINITY, 0.0f64], |[lo, hi], &r| {
+        [lo.min(r), hi.max(r)]
+    });
+    let median = if ratios.is_empty() {
+        f64::NAN
+    } else {
+        repeats::median(&ratios)
+    };
     let refreshes = format!(
-        "  stability refreshes: {} (Lanczos products {}); steps bound by {:?}",
+        "  stability refreshes: {} (Lanczos products {}), {on_bound} proposals on the element bound, bound/λmax at the refreshes {lo:.2} … {median:.2} … {hi:.2}; steps bound by {:?}",
         refreshes.0, refreshes.1, stats.binding
     );
     ControlledRun {
@@ -259,6 +283,7 @@ fn main() -> ExitCode {
         t_end: 0.5,
         fluid: false,
         apic: true,
+        summary: true,
     };
     let mut fixed = None;
     let mut failure = false;
@@ -284,6 +309,10 @@ fn main() -> ExitCode {
                 scene.apic = false;
                 Ok(())
             }
+            "--generic" => {
+                scene.summary = false;
+                Ok(())
+            }
             "--find-failure" => {
                 failure = true;
                 Ok(())
@@ -294,7 +323,7 @@ fn main() -> ExitCode {
             }
             "--repeat" => repeats::parse_repeat(args.next()).map(|n| repeat = n),
             "--help" | "-h" => {
-                println!("usage: mls_mpm [--grid N] [--t-end T] [--fixed-dt DT] [--find-failure] [--rules] [--fluid] [--eq56] [--repeat N]");
+                println!("usage: mls_mpm [--grid N] [--t-end T] [--fixed-dt DT] [--find-failure] [--rules] [--fluid] [--eq56] [--generic] [--repeat N]");
                 return ExitCode::SUCCESS;
             }
             other => Err(format!("unknown argument {other}")),

@@ -18,81 +18,14 @@
 //! [`ViewNd`] it hands to the library, so the stability limit analyses this scheme's own
 //! force operator, not the reference solver's.
 
-use mpm_dt::nd::{GridNd, Tensor, Vector, ViewNd, WeightsNd};
+pub use super::model::Model;
+use super::summary::{ParticleFields, PassTotals};
+use mpm_dt::nd::{GridNd, SummaryNd, Tensor, Vector, ViewNd, WeightsNd};
 use mpm_dt::{Boundary, StepError, Stepper};
 use nalgebra::{Matrix2, Vector2};
 
 /// Cells next to each wall where the wall condition acts (mpm88's `bound`).
 pub const BOUND: i64 = 3;
-
-/// The particles' material.
-#[derive(Clone, Copy, Debug)]
-pub enum Model {
-    /// Fixed-corotated elasticity (Stomakhin et al. 2012; mpm99's jelly):
-    /// Kirchhoff stress `τ = P Fᵀ = 2μ(F − R)Fᵀ + λ(J − 1)J I`.
-    Jelly {
-        /// Young's modulus.
-        youngs_modulus: f64,
-        /// Poisson's ratio.
-        poisson_ratio: f64,
-    },
-    /// mpm88's weakly compressible fluid: `τ = E (J − 1) I`, with `J` advected as
-    /// `J ← (1 + dt tr C) J` and no shear stiffness.
-    Fluid {
-        /// mpm88's `E` (a bulk modulus).
-        bulk_modulus: f64,
-    },
-}
-
-impl Model {
-    /// Small-strain Lamé parameters `(λ, μ)` about the rest state (`(E, 0)` for the fluid).
-    pub fn lame(&self) -> (f64, f64) {
-        match *self {
-            Model::Jelly {
-                youngs_modulus: e,
-                poisson_ratio: nu,
-            } => (
-                e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu)),
-                e / (2.0 * (1.0 + nu)),
-            ),
-            Model::Fluid { bulk_modulus } => (bulk_modulus, 0.0),
-        }
-    }
-
-    /// Kirchhoff stress at deformation `F` with volume ratio `J`.
-    fn kirchhoff(&self, f: &Matrix2<f64>, j: f64) -> Matrix2<f64> {
-        let (lambda, mu) = self.lame();
-        match self {
-            Model::Jelly { .. } => {
-                let r = polar_rotation(f);
-                2.0 * mu * (f - r) * f.transpose() + Matrix2::identity() * (lambda * (j - 1.0) * j)
-            }
-            Model::Fluid { .. } => Matrix2::identity() * (lambda * (j - 1.0)),
-        }
-    }
-
-    /// Stored energy per reference volume: `μ|F − R|² + λ/2 (J − 1)²` (`μ = 0` for the
-    /// fluid).
-    fn energy_density(&self, f: &Matrix2<f64>, j: f64) -> f64 {
-        let (lambda, mu) = self.lame();
-        let shear = match self {
-            Model::Jelly { .. } => mu * (f - polar_rotation(f)).norm_squared(),
-            Model::Fluid { .. } => 0.0,
-        };
-        shear + 0.5 * lambda * (j - 1.0).powi(2)
-    }
-}
-
-/// The rotation of the polar decomposition `F = R S` in 2D (closed form).
-fn polar_rotation(f: &Matrix2<f64>) -> Matrix2<f64> {
-    let (a, b) = (f[(0, 0)] + f[(1, 1)], f[(1, 0)] - f[(0, 1)]);
-    let n = (a * a + b * b).sqrt();
-    if n == 0.0 {
-        return Matrix2::identity();
-    }
-    let (c, s) = (a / n, b / n);
-    Matrix2::new(c, -s, s, c)
-}
 
 /// One state: particle fields and the grid fields computed from them.
 #[derive(Clone)]
@@ -112,6 +45,8 @@ struct State {
     node_v: Vec<Vector2<f64>>,
     node_a: Vec<Vector2<f64>>,
     active: Vec<bool>,
+    /// The totals of the pass that wrote this state, when the solver opts in.
+    summary: Option<SummaryNd<2>>,
 }
 
 impl State {
@@ -144,6 +79,9 @@ pub struct MlsMpm {
     /// A state no longer needed (the last replaced or rejected one), whose arrays the next
     /// trial overwrites instead of cloning the committed state.
     spare: Option<State>,
+    /// Whether the views carry the pass's totals ([`SummaryNd`]: energies, finiteness,
+    /// the speed-of-sound step, the element bound) — the opt-in contract.
+    opt_in: bool,
 }
 
 impl MlsMpm {
@@ -177,10 +115,19 @@ impl MlsMpm {
             node_v: Vec::new(),
             node_a: Vec::new(),
             active: Vec::new(),
+            summary: None,
         };
         let mass = vec![density * vol; n];
         let volume0 = vec![vol; n];
-        particle_to_grid(&grid, &model, gravity, &mass, &volume0, &mut committed);
+        particle_to_grid(
+            &grid,
+            &model,
+            gravity,
+            &mass,
+            &volume0,
+            &mut committed,
+            true,
+        );
         Self {
             grid,
             model,
@@ -193,7 +140,15 @@ impl MlsMpm {
             committed,
             trial: None,
             spare: None,
+            opt_in: true,
         }
+    }
+
+    /// Whether the solver hands the library its pass's totals ([`SummaryNd`]; default
+    /// yes): `false` shows the generic path, where every limit makes its own passes.
+    pub fn with_summary(mut self, opt_in: bool) -> Self {
+        self.opt_in = opt_in;
+        self
     }
 
     /// The grid.
@@ -248,8 +203,10 @@ fn particle_to_grid(
     mass: &[f64],
     volume0: &[f64],
     s: &mut State,
+    summarize: bool,
 ) {
     let h = grid.h[0];
+    let mut totals = summarize.then(|| PassTotals::new(h, model));
     let inv = 4.0 / (h * h);
     let nn = grid.n_nodes();
     s.node_mass.clear();
@@ -271,6 +228,21 @@ fn particle_to_grid(
         // −V⁰ τ (4/h²): the force on node i is stress_term · (x_i − x_p).
         let stress_term = -volume0[p] * inv * tau;
         let affine = mass[p] * s.affine[p];
+        if let Some(t) = totals.as_mut() {
+            t.add(
+                model,
+                &ParticleFields {
+                    mass: mass[p],
+                    volume0: volume0[p],
+                    x: &s.x[p],
+                    v: &s.v[p],
+                    f: &f,
+                    j,
+                    sigma: &s.sigma[p],
+                    density: s.density[p],
+                },
+            );
+        }
         for a in 0..3 {
             for b in 0..3 {
                 let k = p * 9 + a * 3 + b;
@@ -296,6 +268,7 @@ fn particle_to_grid(
             s.node_a[i] = s.node_a[i] / m + gravity;
         }
     }
+    s.summary = totals.map(PassTotals::finish);
 }
 
 impl MlsMpm {
@@ -398,6 +371,7 @@ impl MlsMpm {
             &self.mass,
             &self.volume0,
             &mut s,
+            self.opt_in,
         );
         Ok(s)
     }
@@ -421,7 +395,7 @@ impl MlsMpm {
             node_velocity: vectors(&s.node_v),
             node_acceleration: vectors(&s.node_a),
             node_active: &s.active,
-            summary: None,
+            summary: if self.opt_in { s.summary } else { None },
             split: None,
         }
     }

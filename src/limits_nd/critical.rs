@@ -58,7 +58,7 @@ pub struct CriticalTable {
 pub fn lambda_max<const D: usize>(view: &ViewNd<'_, D>) -> f64 {
     let n = view.n_nodes() * D;
     let space = super::stiffness::NodalSpace::new(view, &crate::reduce::SingleProcess);
-    let start = super::stability::checkerboard_start(view, &space);
+    let start = super::start::checkerboard_start(view, &space);
     let max_iter = if n > 100_000 { 60 } else { 150 };
     let r = lanczos(view, &start, 1e-10, max_iter.min(n.max(1)));
     r.lambda

@@ -35,11 +35,14 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+mod bound_tracking;
 pub mod critical;
+pub mod element_bound;
 pub mod full_map;
 mod growth;
 mod sound_speed;
 mod stability;
+mod start;
 pub mod stiffness;
 mod temporal_error;
 mod temporal_sweep;

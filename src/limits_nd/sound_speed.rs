@@ -54,7 +54,12 @@ where
     }
 
     fn propose(&mut self, state: &ViewNd<'_, D>) -> Result<Proposal, LimitError> {
-        let dt = self.alpha * Self::unit_step(state)?;
+        // The stepper's own minimum when it computed one in its pass (`SummaryNd`).
+        let unit = match state.summary.and_then(|s| s.sound_unit_step) {
+            Some(u) if u.is_finite() => u,
+            _ => Self::unit_step(state)?,
+        };
+        let dt = self.alpha * unit;
         Ok(Proposal {
             dt,
             metrics: Default::default(),

@@ -17,6 +17,15 @@
 //!
 //! and between refreshes proposes from the cached value, scaled for the moduli's growth.
 //!
+//! **Bound mode.** At every refresh the element bound `B ≥ λmax`
+//! ([`super::element_bound`]) of the same state is evaluated too. Where it is close to the
+//! Lanczos value (within `1 + bound_slack`; where the stepper supplies `B` from its own
+//! pass, also wherever the Lanczos products it saves outweigh the shorter step), the next
+//! proposals step on the current state's `B` instead — guaranteed in the frozen-particle
+//! sense, no motion guard, no Lanczos — until `bound_age` proposals have passed; and a
+//! refresh the guard calls for is skipped where `B` is that close to the cached value
+//! ([`super::bound_tracking`]).
+//!
 //! **Moduli between refreshes.** On symmetric tensors the isotropic `V_p C_p` has two
 //! eigenvalues, `V(dλ_t + 2μ_t)` (volumetric) and `2Vμ_t` (deviatoric). If each grew at
 //! most by the factor `r_p` since the refresh then `V'_p C'_p ⪯ r_p V_p C_p`, so with the
@@ -60,6 +69,10 @@
 //! the guard that catches all three: it rejects a step whose energy grows and lowers this
 //! limit's safety for the rest of the run ([`StepLimit::scale_safety`]).
 
+mod guard;
+
+use super::bound_tracking::BoundTracking;
+use super::start::checkerboard_start;
 use super::stiffness::{diagonal_argmax, lanczos_reduced, NodalSpace};
 use super::transfer::{apic_gain, TransferNd};
 use crate::dimension::{Dim, Dimension};
@@ -106,6 +119,15 @@ pub struct StabilityNdConfig {
     /// with [`TransferNd::Apic`] the limit is `√(2(1 + p)/λmax)`, `p` the transfer's
     /// Rayleigh quotient on the tracked top mode (`limits_nd/transfer.rs`).
     pub transfer: TransferNd,
+    /// Step on the element bound when it is within `1 + bound_slack` of the Lanczos value
+    /// (default 0.25; negative: never), [`super::bound_tracking`].
+    pub bound_slack: f64,
+    /// In bound mode, run Lanczos again after this many proposals (default 50).
+    pub bound_age: u32,
+    /// The cost of one Lanczos product in bare steps, for deciding when stepping on the
+    /// bound pays (default 0.5: a product gathers and scatters over the stencils once, a
+    /// step about twice; [`super::bound_tracking`]).
+    pub product_cost: f64,
 }
 
 impl Default for StabilityNdConfig {
@@ -121,6 +143,9 @@ impl Default for StabilityNdConfig {
             max_iter: 40,
             margin: 1.0,
             transfer: TransferNd::Flip,
+            bound_slack: 0.25,
+            bound_age: 50,
+            product_cost: 0.5,
         }
     }
 }
@@ -146,6 +171,11 @@ pub struct StabilityNd<const D: usize> {
     age: u32,
     refreshes: u64,
     applications: u64,
+    /// When proposals use the element bound instead ([`super::bound_tracking`]).
+    tracking: BoundTracking,
+    /// Lanczos products of the last refresh when it was warm-started (a cold start's are
+    /// not what tracking costs).
+    last_products: Option<u64>,
     /// The run's reductions ([`StepLimit::set_reduce`]).
     reduce: Rc<dyn Reduce>,
 }
@@ -167,6 +197,8 @@ impl<const D: usize> StabilityNd<D> {
             age: 0,
             refreshes: 0,
             applications: 0,
+            tracking: BoundTracking::default(),
+            last_products: None,
             reduce: Rc::new(SingleProcess),
         }
     }
@@ -179,15 +211,6 @@ impl<const D: usize> StabilityNd<D> {
     /// Lanczos refreshes so far.
     pub fn refreshes(&self) -> u64 {
         self.refreshes
-    }
-
-    /// The two eigenvalues of `V_p C_p` on symmetric tensors: `V(dλ_t + 2μ_t)` (volumetric)
-    /// and `2Vμ_t` (deviatoric), the latter stored halved as `Vμ_t`.
-    #[inline]
-    fn moduli(view: &ViewNd<'_, D>, p: usize) -> (f64, f64) {
-        let vol = view.volume(p);
-        let (l, m) = (view.lame_lambda[p], view.lame_mu[p]);
-        (vol * (D as f64 * l + 2.0 * m), vol * m)
     }
 
     /// Smallest active nodal mass, `+∞` when no node is active (on a decomposed grid,
@@ -218,128 +241,6 @@ impl<const D: usize> StabilityNd<D> {
             Some(s) => s.halo.reduce(),
             None => own,
         }
-    }
-
-    /// Where particle `p`'s reference values are kept: its run-wide identity on a
-    /// decomposed grid (particles move between processes), else its index.
-    #[inline]
-    fn key(view: &ViewNd<'_, D>, p: usize) -> usize {
-        view.split.as_ref().map_or(p, |s| s.particle_id[p] as usize)
-    }
-
-    /// Number of particle references kept: the whole run's on a decomposed grid.
-    fn n_refs(view: &ViewNd<'_, D>) -> usize {
-        view.split
-            .as_ref()
-            .map_or(view.n_particles(), |s| s.n_particles_total)
-    }
-
-    /// `None` when the cached `λmax` must be recomputed, else the factor `r ≥ 1` it is
-    /// multiplied by for the moduli's growth since the refresh (module docs).
-    /// `m_min` is the view's [`Self::smallest_node_mass`]; `diag` receives
-    /// [`diagonal_argmax`] of the view when the check computes it (a refresh reuses it).
-    fn staleness(
-        &mut self,
-        view: &ViewNd<'_, D>,
-        m_min: f64,
-        diag: &mut Option<(f64, usize)>,
-    ) -> Option<f64> {
-        if self.lambda.is_none()
-            || self.age >= self.config.max_age
-            || self.x_ref.len() != Self::n_refs(view)
-            || self.ritz.len() != view.n_nodes() * D
-        {
-            return None;
-        }
-        let growth_limit = 1.0 + self.config.refresh_modulus;
-        if m_min.is_infinite() {
-            // No active node.
-            return None;
-        }
-        if m_min < (1.0 - self.config.refresh_mass) * self.mass_ref {
-            // A lighter node: refresh only if some node's diagonal of A grew (module docs).
-            let d = diag.insert(diagonal_argmax(view, &*self.reduce)).0;
-            let growth = d / self.diag_ref;
-            if growth.is_nan() || growth > 1.0 + self.config.refresh_diagonal {
-                return None;
-            }
-            self.diag_growth = self.diag_growth.max(growth);
-            self.mass_ref = m_min;
-        }
-        let grid = view.split.as_ref().map_or(view.grid, |s| s.whole);
-        let h = grid.h;
-        let lim = self.config.refresh_cells;
-        // On a periodic axis a particle that wrapped around shows a jump of one box length:
-        // its displacement is taken modulo the box.
-        let period: [f64; D] = std::array::from_fn(|a| match grid.boundary[a] {
-            crate::Boundary::Periodic => grid.length(a),
-            _ => f64::INFINITY,
-        });
-        let mut growth: f64 = 1.0;
-        for p in 0..view.n_particles() {
-            let key = Self::key(view, p);
-            let dx = view.x[p] - self.x_ref[key];
-            for a in 0..D {
-                if dx[a].abs() <= lim * h[a] {
-                    continue;
-                }
-                let d = if period[a].is_finite() {
-                    dx[a] - period[a] * (dx[a] / period[a]).round()
-                } else {
-                    dx[a]
-                };
-                if d.is_nan() || d.abs() > lim * h[a] {
-                    return None;
-                }
-            }
-            let (bulk, shear) = Self::moduli(view, p);
-            let (bulk_ref, shear_ref) = self.moduli_ref[key];
-            let r_bulk = bulk / bulk_ref;
-            let r_shear = if shear_ref > 0.0 {
-                shear / shear_ref
-            } else if shear > 0.0 {
-                f64::INFINITY
-            } else {
-                0.0
-            };
-            let r = r_bulk.max(r_shear);
-            // NaN (a non-finite modulus) forces a refresh.
-            if r.is_nan() || r > growth_limit {
-                return None;
-            }
-            growth = growth.max(r);
-        }
-        Some(growth.max(self.diag_growth))
-    }
-
-    /// Keeps the positions and moduli of the analysed state. On a decomposed grid the
-    /// particles of every process, by run-wide identity (one reduction of
-    /// `n_total·(D + 2)` numbers), as particles move between processes before the next
-    /// comparison; this costs `n_total·(D + 2)` numbers of memory on every process.
-    fn store_references(&mut self, view: &ViewNd<'_, D>) {
-        let Some(split) = &view.split else {
-            self.x_ref = view.x.to_vec();
-            self.moduli_ref = (0..view.n_particles())
-                .map(|p| Self::moduli(view, p))
-                .collect();
-            return;
-        };
-        let n = split.n_particles_total;
-        let w = D + 2;
-        let mut buf = vec![0.0; n * w];
-        for p in 0..view.n_particles() {
-            let k = split.particle_id[p] as usize * w;
-            let (bulk, shear) = Self::moduli(view, p);
-            buf[k..k + D].copy_from_slice(view.x[p].as_slice());
-            buf[k + D] = bulk;
-            buf[k + D + 1] = shear;
-        }
-        Self::agreement(&*self.reduce, view).sum(&mut buf);
-        self.x_ref = buf
-            .chunks_exact(w)
-            .map(|c| Vector::<D>::from_column_slice(&c[..D]))
-            .collect();
-        self.moduli_ref = buf.chunks_exact(w).map(|c| (c[D], c[D + 1])).collect();
     }
 
     /// `m_min` is the view's [`Self::smallest_node_mass`], `diag` its [`diagonal_argmax`]
@@ -412,42 +313,110 @@ impl<const D: usize> StabilityNd<D> {
         self.age = 0;
         self.refreshes += 1;
         self.applications += r.applications as u64;
+        self.last_products = warm.then_some(r.applications as u64);
         self.lambda = Some(lambda);
+        if self.config.bound_slack >= 0.0 {
+            let bound = self
+                .tracking
+                .bound_of(view, Self::agreement(&*self.reduce, view));
+            let threshold = self.bound_threshold(view);
+            self.tracking.after_refresh(lambda, bound, threshold);
+        }
         Ok(lambda)
     }
-}
 
-/// A cold start close to the top of the spectrum: in component `a`, the checkerboard along
-/// axis `a`, `(−1)^(j_a)` (the P wave of the highest wavenumber along each axis, which
-/// carries `λmax` on uniform GIMP and linear-hat layouts: across the other axes the
-/// weights sum to one, where the full checkerboard's alternating sums nearly cancel),
-/// plus half the full checkerboard `(−1)^(Σ_b j_b)` and a small seeded perturbation so
-/// that no mode is missed; all functions of the node in the whole grid. On the 3D GIMP
-/// wave of 10⁵ particles the first Rayleigh quotient is 0.82 of `λmax`, against 0.20 for
-/// the previous start (the full checkerboard plus the diagonal bump), and Lanczos settles
-/// in 2 products instead of 20.
-pub(super) fn checkerboard_start<const D: usize>(
-    view: &ViewNd<'_, D>,
-    space: &NodalSpace<'_, '_, D>,
-) -> Vec<f64> {
-    let n = view.n_nodes();
-    let whole = view.split.as_ref().map_or(view.grid, |s| s.whole);
-    let mut out = Vec::with_capacity(n * D);
-    for local in 0..n {
-        let i = space.global(local);
-        let j = whole.lattice_of(i);
-        let sign = if j.iter().sum::<i64>().rem_euclid(2) == 0 {
-            1.0
+    /// `λmax` out of bound mode: the cached Lanczos value while the motion guard holds,
+    /// the element bound where it is tight enough when the guard calls for a refresh,
+    /// else a refresh (module docs, [`super::bound_tracking`]). Returns it and whether
+    /// Lanczos ran.
+    fn tracked_lambda(&mut self, state: &ViewNd<'_, D>) -> Result<(f64, bool), LimitError> {
+        // The smallest nodal mass first: a reduction every process makes, on every step.
+        let m_min = self.smallest_node_mass(state);
+        let mut diag = None;
+        let local = self.staleness(state, m_min, &mut diag);
+        // The processes of a split run agree: any stale part refreshes everywhere, and
+        // the moduli growth is the largest of all (`crate::reduce`).
+        let (neg_growth, stale) = Self::agreement(&*self.reduce, state)
+            .min_and_any(-local.unwrap_or(1.0), local.is_none());
+        let agreed = (!stale).then_some(-neg_growth);
+        if let (Some(growth), Some(cached)) = (agreed, self.lambda) {
+            return Ok((cached * growth, false));
+        }
+        let young = self.age < self.config.bound_age;
+        if let Some(cached) = self
+            .lambda
+            .filter(|_| young && self.config.bound_slack >= 0.0)
+        {
+            let bound = self
+                .tracking
+                .bound_of(state, Self::agreement(&*self.reduce, state));
+            if let Some(products) = self.last_products.filter(|_| self.age > 0) {
+                // The guard ended a Lanczos interval: what it cost per proposal.
+                self.tracking.lanczos_rate = Some(products as f64 / f64::from(self.age));
+            }
+            let threshold = self.bound_threshold(state);
+            if self
+                .tracking
+                .take_instead_of_refresh(bound, cached, threshold)
+            {
+                self.tracking.bound_proposals += 1;
+                return Ok((bound, false));
+            }
+        }
+        Ok((self.refresh(state, m_min, diag)?, true))
+    }
+
+    /// The largest `B/λ` stepped on ([`BoundTracking::threshold`]).
+    fn bound_threshold(&self, view: &ViewNd<'_, D>) -> f64 {
+        let supplied = view.summary.is_some_and(|s| s.element_bound.is_some());
+        self.tracking
+            .threshold(self.config.bound_slack, self.config.product_cost, supplied)
+    }
+
+    /// In bound mode ([`super::bound_tracking`]), the current state's element bound, while
+    /// it is finite and the last Lanczos run is younger than `bound_age`; `None` ends
+    /// bound mode (a refresh follows).
+    fn bound_proposal(&mut self, view: &ViewNd<'_, D>) -> Option<f64> {
+        if !self.tracking.active || self.lambda.is_none() {
+            return None;
+        }
+        if self.age >= self.config.bound_age {
+            self.tracking.active = false;
+            return None;
+        }
+        let bound = self
+            .tracking
+            .bound_of(view, Self::agreement(&*self.reduce, view));
+        if bound.is_finite() && bound > 0.0 {
+            Some(bound)
         } else {
-            -1.0
-        };
-        for (a, &ja) in j.iter().enumerate() {
-            let noise = ((i * D + a) * 7919 % 101) as f64 / 101.0 - 0.5;
-            let along = if ja.rem_euclid(2) == 0 { 1.0 } else { -1.0 };
-            out.push(along + 0.5 * sign + 0.1 * noise);
+            self.tracking.active = false;
+            None
         }
     }
-    out
+
+    /// The metrics of a proposal: `λmax` used, and how it was obtained.
+    fn proposal_metrics(&self, lambda: f64, refreshed: bool) -> Metrics {
+        let mut metrics = Metrics::new();
+        if refreshed {
+            metrics.insert("refreshes".into(), self.refreshes as f64);
+            metrics.insert("lanczos_applications".into(), self.applications as f64);
+            if let Some(r) = self.tracking.last_ratio {
+                metrics.insert("bound_ratio".into(), r);
+            }
+        }
+        if self.tracking.active {
+            metrics.insert(
+                "bound_proposals".into(),
+                self.tracking.bound_proposals as f64,
+            );
+        }
+        metrics.insert(crate::controller::metric::LAMBDA_MAX.into(), lambda);
+        if self.config.transfer != TransferNd::Flip {
+            metrics.insert("transfer_gain".into(), self.gain);
+        }
+        metrics
+    }
 }
 
 impl<const D: usize> StepLimit<D> for StabilityNd<D>
@@ -459,33 +428,17 @@ where
     }
 
     fn propose(&mut self, state: &ViewNd<'_, D>) -> Result<Proposal, LimitError> {
-        let mut metrics = Metrics::new();
-        // The smallest nodal mass first: a reduction every process makes, on every step.
-        let m_min = self.smallest_node_mass(state);
-        let mut diag = None;
-        let local = self.staleness(state, m_min, &mut diag);
-        // The processes of a split run agree: any stale part refreshes everywhere, and
-        // the moduli growth is the largest of all (`crate::reduce`).
-        let (neg_growth, stale) = Self::agreement(&*self.reduce, state)
-            .min_and_any(-local.unwrap_or(1.0), local.is_none());
-        let agreed = (!stale).then_some(-neg_growth);
-        let lambda = match (agreed, self.lambda) {
-            (Some(growth), Some(cached)) => cached * growth,
-            _ => {
-                let l = self.refresh(state, m_min, diag)?;
-                metrics.insert("refreshes".into(), self.refreshes as f64);
-                metrics.insert("lanczos_applications".into(), self.applications as f64);
-                l
+        let (lambda, refreshed) = match self.bound_proposal(state) {
+            Some(bound) => {
+                self.tracking.bound_proposals += 1;
+                (bound, false)
             }
+            None => self.tracked_lambda(state)?,
         };
         self.age += 1;
-        metrics.insert(crate::controller::metric::LAMBDA_MAX.into(), lambda);
-        if self.config.transfer != TransferNd::Flip {
-            metrics.insert("transfer_gain".into(), self.gain);
-        }
         Ok(Proposal {
             dt: self.safety * (2.0 * self.gain / lambda).sqrt(),
-            metrics,
+            metrics: self.proposal_metrics(lambda, refreshed),
         })
     }
 

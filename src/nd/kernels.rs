@@ -218,6 +218,8 @@ pub(super) fn grid_to_particle<const D: usize>(
         kinetic: 0.0,
         strain: 0.0,
         first_moment: Vector::<D>::zeros(),
+        element_bound: None,
+        sound_unit_step: None,
     };
     for p in 0..from.x.len() {
         let mut acc = Vector::<D>::zeros();

@@ -109,6 +109,19 @@ pub struct SummaryNd<const D: usize> {
     pub strain: f64,
     /// `Σ_p m_p x_p` (the gravitational potential is `−g · Σ m x`).
     pub first_moment: Vector<D>,
+    /// `max_p λ_p`, the element bound on `λmax(M⁻¹K)`
+    /// ([`crate::limits_nd::element_bound`]), if the stepper computed it in its pass:
+    /// each particle's `λ_p = (V_p/m_p) min(λ̄(H_p) max(Dλ_t + 2μ_t, 2μ_t),
+    /// tr(H_p) max(λ_t + 2μ_t, 2μ_t))` with `H_p = Σ_i ∇S_ip ∇S_ipᵀ/S_ip`, `λ̄` its largest
+    /// Gershgorin row sum (for MLS-MPM's gradients `H_p = (4/h²) I`, so
+    /// `λ_p = (4/h²)(V_p/m_p)(Dλ_t + 2μ_t)`, O(1) per particle). It must be an upper
+    /// bound of what the library would compute; `None` makes the stability limit compute
+    /// it with a pass over the weights when it needs it.
+    pub element_bound: Option<f64>,
+    /// `min_p min_a h_a/(c_p + |v_{p,a}|)`, the speed-of-sound step at α = 1
+    /// ([`crate::limits_nd::SoundSpeedNd::unit_step`]), if the stepper computed it in its
+    /// pass; `None` makes the sound-speed limit make a pass of its own.
+    pub sound_unit_step: Option<f64>,
 }
 
 impl<const D: usize> ViewNd<'_, D> {

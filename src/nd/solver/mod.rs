@@ -179,6 +179,8 @@ impl<const D: usize> SolverNd<D> {
                 .iter()
                 .zip(&s.carried.mass)
                 .fold(Vector::<D>::zeros(), |acc, (x, &m)| acc + x * m),
+            element_bound: None,
+            sound_unit_step: None,
         };
         self.whole_run_summary(summary)
     }
@@ -201,6 +203,8 @@ impl<const D: usize> SolverNd<D> {
             kinetic: buf[1],
             strain: buf[2],
             first_moment: Vector::<D>::from_fn(|a, _| buf[3 + a]),
+            element_bound: None,
+            sound_unit_step: None,
         }
     }
 
@@ -312,6 +316,8 @@ impl<const D: usize> SolverNd<D> {
                         kinetic: 0.0,
                         strain: 0.0,
                         first_moment: Vector::<D>::zeros(),
+                        element_bound: None,
+                        sound_unit_step: None,
                     });
                 }
                 return Err(SetupNdError::Length {

@@ -100,6 +100,8 @@ impl<const D: usize> SolverNd<D> {
                 kinetic: 0.0,
                 strain: 0.0,
                 first_moment: Vector::<D>::zeros(),
+                element_bound: None,
+                sound_unit_step: None,
             });
             trial.summary = Some(self.whole_run_summary(mine));
         } else {

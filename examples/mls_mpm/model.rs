@@ -1,0 +1,73 @@
+//! The MLS-MPM example's materials: mpm99's fixed-corotated jelly and mpm88's weakly
+//! compressible fluid.
+
+use nalgebra::Matrix2;
+
+/// The particles' material.
+#[derive(Clone, Copy, Debug)]
+pub enum Model {
+    /// Fixed-corotated elasticity (Stomakhin et al. 2012; mpm99's jelly):
+    /// Kirchhoff stress `τ = P Fᵀ = 2μ(F − R)Fᵀ + λ(J − 1)J I`.
+    Jelly {
+        /// Young's modulus.
+        youngs_modulus: f64,
+        /// Poisson's ratio.
+        poisson_ratio: f64,
+    },
+    /// mpm88's weakly compressible fluid: `τ = E (J − 1) I`, with `J` advected as
+    /// `J ← (1 + dt tr C) J` and no shear stiffness.
+    Fluid {
+        /// mpm88's `E` (a bulk modulus).
+        bulk_modulus: f64,
+    },
+}
+
+impl Model {
+    /// Small-strain Lamé parameters `(λ, μ)` about the rest state (`(E, 0)` for the fluid).
+    pub fn lame(&self) -> (f64, f64) {
+        match *self {
+            Model::Jelly {
+                youngs_modulus: e,
+                poisson_ratio: nu,
+            } => (
+                e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu)),
+                e / (2.0 * (1.0 + nu)),
+            ),
+            Model::Fluid { bulk_modulus } => (bulk_modulus, 0.0),
+        }
+    }
+
+    /// Kirchhoff stress at deformation `F` with volume ratio `J`.
+    pub fn kirchhoff(&self, f: &Matrix2<f64>, j: f64) -> Matrix2<f64> {
+        let (lambda, mu) = self.lame();
+        match self {
+            Model::Jelly { .. } => {
+                let r = polar_rotation(f);
+                2.0 * mu * (f - r) * f.transpose() + Matrix2::identity() * (lambda * (j - 1.0) * j)
+            }
+            Model::Fluid { .. } => Matrix2::identity() * (lambda * (j - 1.0)),
+        }
+    }
+
+    /// Stored energy per reference volume: `μ|F − R|² + λ/2 (J − 1)²` (`μ = 0` for the
+    /// fluid).
+    pub fn energy_density(&self, f: &Matrix2<f64>, j: f64) -> f64 {
+        let (lambda, mu) = self.lame();
+        let shear = match self {
+            Model::Jelly { .. } => mu * (f - polar_rotation(f)).norm_squared(),
+            Model::Fluid { .. } => 0.0,
+        };
+        shear + 0.5 * lambda * (j - 1.0).powi(2)
+    }
+}
+
+/// The rotation of the polar decomposition `F = R S` in 2D (closed form).
+pub fn polar_rotation(f: &Matrix2<f64>) -> Matrix2<f64> {
+    let (a, b) = (f[(0, 0)] + f[(1, 1)], f[(1, 0)] - f[(0, 1)]);
+    let n = (a * a + b * b).sqrt();
+    if n == 0.0 {
+        return Matrix2::identity();
+    }
+    let (c, s) = (a / n, b / n);
+    Matrix2::new(c, -s, s, c)
+}

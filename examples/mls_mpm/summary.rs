@@ -1,0 +1,90 @@
+//! What the MLS-MPM solver hands the library from its own particle → grid pass when it
+//! opts in ([`mpm_dt::nd::SummaryNd`]): the energies the growth monitor reads, the
+//! finiteness the controller checks, the speed-of-sound step and the element bound on
+//! `λmax` — so that no limit makes a pass over the particles of its own.
+
+use super::solver::Model;
+use mpm_dt::nd::{SummaryNd, Vector};
+use nalgebra::{Matrix2, Vector2};
+
+/// Totals accumulated particle by particle inside the pass.
+pub struct PassTotals {
+    finite: bool,
+    kinetic: f64,
+    strain: f64,
+    first_moment: Vector2<f64>,
+    element_bound: f64,
+    unit_step: f64,
+    /// `4/h²`, MLS-MPM's `D_p⁻¹` for quadratic B-splines.
+    inv: f64,
+    h: f64,
+    /// `max(2λ + 2μ, 2μ)` and `λ + 2μ` of the model's tangent about rest.
+    c_vol: f64,
+    c_p: f64,
+}
+
+/// One particle's fields, as the pass has them.
+pub struct ParticleFields<'a> {
+    pub mass: f64,
+    pub volume0: f64,
+    pub x: &'a Vector2<f64>,
+    pub v: &'a Vector2<f64>,
+    pub f: &'a Matrix2<f64>,
+    pub j: f64,
+    pub sigma: &'a Matrix2<f64>,
+    pub density: f64,
+}
+
+impl PassTotals {
+    /// Empty totals for a grid of spacing `h` and the material `model`.
+    pub fn new(h: f64, model: &Model) -> Self {
+        let (lambda, mu) = model.lame();
+        Self {
+            finite: true,
+            kinetic: 0.0,
+            strain: 0.0,
+            first_moment: Vector2::zeros(),
+            element_bound: 0.0,
+            unit_step: f64::INFINITY,
+            inv: 4.0 / (h * h),
+            h,
+            c_vol: (2.0 * lambda + 2.0 * mu).max(2.0 * mu),
+            c_p: lambda + 2.0 * mu,
+        }
+    }
+
+    /// Adds one particle. Its element bound is `(4/h²)(V_p/m_p)(2λ + 2μ)` with
+    /// `V_p = det(F_p) V⁰_p`: MLS-MPM's gradient metric is `(4/h²) I`
+    /// (`mpm_dt::limits_nd::element_bound`), so this is what the library's pass would
+    /// compute, in O(1).
+    #[inline]
+    pub fn add(&mut self, model: &Model, p: &ParticleFields<'_>) {
+        // One non-finite entry makes the sum non-finite.
+        self.finite &= (p.x.sum() + p.v.sum() + p.f.sum() + p.sigma.sum()).is_finite();
+        self.kinetic += 0.5 * p.mass * p.v.norm_squared();
+        self.strain += p.volume0 * model.energy_density(p.f, p.j);
+        self.first_moment += p.mass * p.x;
+        let volume = p.f.determinant() * p.volume0;
+        let bound = self.inv * volume / p.mass * self.c_vol;
+        if bound.is_nan() || bound > self.element_bound {
+            self.element_bound = bound;
+        }
+        let c = (self.c_p / p.density).sqrt();
+        let step = self.h / (c + p.v.amax());
+        if step.is_nan() || step < self.unit_step {
+            self.unit_step = step;
+        }
+    }
+
+    /// The summary the view carries.
+    pub fn finish(self) -> SummaryNd<2> {
+        SummaryNd {
+            finite: self.finite && self.element_bound.is_finite() && self.unit_step.is_finite(),
+            kinetic: self.kinetic,
+            strain: self.strain,
+            first_moment: Vector::<2>::new(self.first_moment[0], self.first_moment[1]),
+            element_bound: Some(self.element_bound),
+            sound_unit_step: Some(self.unit_step),
+        }
+    }
+}

@@ -1,0 +1,113 @@
+//! When the stability limit steps on the element bound instead of a Lanczos value.
+//!
+//! The element bound `B = max_p λ_p ≥ λmax(M⁻¹K)` ([`super::element_bound`]) is
+//! guaranteed (in the frozen-particle sense of eq 56) and costs one pass over the particles
+//! — nothing at all when the stepper supplies it from its own pass
+//! ([`crate::nd::SummaryNd::element_bound`]). Lanczos gives `λmax` itself but costs several
+//! products with `K`, and its value goes stale as particles move. How far apart the two
+//! are depends on the scheme and the layout (measured ratios `B/λ` at the refreshes, in
+//! `docs/performance.md`): close to 1 for MLS-MPM's gradients, where the bound is exact for
+//! every particle on its own and the top mode sits on the few particles of a splash; 1.3–3
+//! for GIMP bodies; 3–8 for 3D GIMP and B-spline waves.
+//!
+//! # The policy
+//!
+//! * At every Lanczos refresh the bound of the same state is evaluated too and their
+//!   ratio `q = B/λ` recorded. If `q ≤ 1 + bound_slack` the limit enters *bound mode*.
+//! * In bound mode every proposal uses the current state's `B` — no motion guard, no
+//!   Lanczos — until `bound_age` proposals have passed since the last Lanczos run; then a
+//!   refresh measures `q` again. A bound that is not finite (a linear hat with a particle
+//!   on a node) ends bound mode at once.
+//! * Out of bound mode the tracked Lanczos value and its motion guard work as before;
+//!   when the guard calls for a refresh, the bound is evaluated first, and if it is within
+//!   `1 + bound_slack` of the cached value the limit enters bound mode without Lanczos.
+//!
+//! In bound mode the step is `safety·√(2·gain/B)`: at most `1 − 1/√(1 + bound_slack)`
+//! shorter than Lanczos' (10.6 % for the default 0.25), never longer than the frozen-particle
+//! limit the bound certifies (unlike the cached Lanczos value, which is a margin, not a
+//! bound). The APIC gain is the one measured on the Ritz vector of the last refresh.
+//! `bound_slack < 0` switches the policy off (the Lanczos tracking alone, as before).
+
+use super::element_bound::element_bound;
+use crate::nd::ViewNd;
+use crate::reduce::Reduce;
+
+/// State of the policy (module docs).
+#[derive(Clone, Debug, Default)]
+pub struct BoundTracking {
+    /// Whether proposals use the element bound.
+    pub active: bool,
+    /// `B/λ` at the last refresh (`None` before the first, or where `B` was not finite).
+    pub last_ratio: Option<f64>,
+    /// Smallest and largest `B/λ` seen at the refreshes, and how many were seen.
+    pub ratio_range: Option<(f64, f64, u64)>,
+    /// Proposals made from the bound.
+    pub bound_proposals: u64,
+    /// Bounds evaluated by a pass of the library's own (not supplied by the stepper).
+    pub bound_passes: u64,
+    /// Lanczos products per proposal over the last interval that the motion guard ended.
+    pub lanczos_rate: Option<f64>,
+}
+
+impl BoundTracking {
+    /// The element bound of `view`: the stepper's own ([`crate::nd::SummaryNd`]) when it
+    /// supplies one, else a pass over the weights; the largest over the processes of a
+    /// split run either way (one scalar reduction).
+    pub fn bound_of<const D: usize>(&mut self, view: &ViewNd<'_, D>, reduce: &dyn Reduce) -> f64 {
+        match view.summary.and_then(|s| s.element_bound) {
+            Some(b) => {
+                let mine = if b.is_nan() { 0.0 } else { b };
+                let (neg, any_nan) = reduce.min_and_any(-mine, b.is_nan());
+                if any_nan {
+                    f64::NAN
+                } else {
+                    -neg
+                }
+            }
+            None => {
+                self.bound_passes += 1;
+                element_bound(view, reduce).lambda
+            }
+        }
+    }
+
+    /// The largest `B/λ` worth stepping on (module docs): `1 + slack` on the generic
+    /// path; where the stepper supplies the bound from its own pass (it costs nothing),
+    /// also more where the Lanczos tracking is dear — the step shortens by `√(B/λ)` while
+    /// each step saves `product_cost · rate` bare steps of Lanczos products (`rate`
+    /// products per proposal over the last interval the motion guard ended).
+    pub fn threshold(&self, slack: f64, product_cost: f64, supplied: bool) -> f64 {
+        if slack < 0.0 {
+            return f64::NAN;
+        }
+        if !supplied {
+            return 1.0 + slack;
+        }
+        let saving = 1.0 + product_cost * self.lanczos_rate.unwrap_or(0.0);
+        (1.0 + slack).max(saving * saving)
+    }
+
+    /// Records a refresh's Lanczos value `lambda` beside the same state's `bound`, and
+    /// decides whether the next proposals use the bound; `rate` is the refresh's products
+    /// per proposal since the previous one when the motion guard called for it.
+    pub fn after_refresh(&mut self, lambda: f64, bound: f64, threshold: f64) {
+        let ratio = bound / lambda;
+        if ratio.is_finite() {
+            self.last_ratio = Some(ratio);
+            self.ratio_range = Some(match self.ratio_range {
+                None => (ratio, ratio, 1),
+                Some((lo, hi, n)) => (lo.min(ratio), hi.max(ratio), n + 1),
+            });
+        } else {
+            self.last_ratio = None;
+        }
+        self.active = ratio.is_finite() && ratio <= threshold;
+    }
+
+    /// Whether a bound met where the cached value `cached` went stale is tight enough to
+    /// step on (module docs); enters bound mode if so.
+    pub fn take_instead_of_refresh(&mut self, bound: f64, cached: f64, threshold: f64) -> bool {
+        self.active = bound.is_finite() && bound > 0.0 && bound <= threshold * cached;
+        self.active
+    }
+}

@@ -1,0 +1,139 @@
+//! The stability limit's motion guard: the positions and moduli of the analysed state,
+//! and whether the current state is still close enough to it (the parent module's docs).
+
+use super::StabilityNd;
+use crate::limits_nd::stiffness::diagonal_argmax;
+use crate::nd::{Vector, ViewNd};
+
+impl<const D: usize> StabilityNd<D> {
+    /// The two eigenvalues of `V_p C_p` on symmetric tensors: `V(dλ_t + 2μ_t)` (volumetric)
+    /// and `2Vμ_t` (deviatoric), the latter stored halved as `Vμ_t`.
+    #[inline]
+    fn moduli(view: &ViewNd<'_, D>, p: usize) -> (f64, f64) {
+        let vol = view.volume(p);
+        let (l, m) = (view.lame_lambda[p], view.lame_mu[p]);
+        (vol * (D as f64 * l + 2.0 * m), vol * m)
+    }
+
+    /// Where particle `p`'s reference values are kept: its run-wide identity on a
+    /// decomposed grid (particles move between processes), else its index.
+    #[inline]
+    fn key(view: &ViewNd<'_, D>, p: usize) -> usize {
+        view.split.as_ref().map_or(p, |s| s.particle_id[p] as usize)
+    }
+
+    /// Number of particle references kept: the whole run's on a decomposed grid.
+    fn n_refs(view: &ViewNd<'_, D>) -> usize {
+        view.split
+            .as_ref()
+            .map_or(view.n_particles(), |s| s.n_particles_total)
+    }
+
+    /// `None` when the cached `λmax` must be recomputed, else the factor `r ≥ 1` it is
+    /// multiplied by for the moduli's growth since the refresh (module docs).
+    /// `m_min` is the view's [`Self::smallest_node_mass`]; `diag` receives
+    /// [`diagonal_argmax`] of the view when the check computes it (a refresh reuses it).
+    pub(super) fn staleness(
+        &mut self,
+        view: &ViewNd<'_, D>,
+        m_min: f64,
+        diag: &mut Option<(f64, usize)>,
+    ) -> Option<f64> {
+        if self.lambda.is_none()
+            || self.age >= self.config.max_age
+            || self.x_ref.len() != Self::n_refs(view)
+            || self.ritz.len() != view.n_nodes() * D
+        {
+            return None;
+        }
+        let growth_limit = 1.0 + self.config.refresh_modulus;
+        if m_min.is_infinite() {
+            // No active node.
+            return None;
+        }
+        if m_min < (1.0 - self.config.refresh_mass) * self.mass_ref {
+            // A lighter node: refresh only if some node's diagonal of A grew (module docs).
+            let d = diag.insert(diagonal_argmax(view, &*self.reduce)).0;
+            let growth = d / self.diag_ref;
+            if growth.is_nan() || growth > 1.0 + self.config.refresh_diagonal {
+                return None;
+            }
+            self.diag_growth = self.diag_growth.max(growth);
+            self.mass_ref = m_min;
+        }
+        let grid = view.split.as_ref().map_or(view.grid, |s| s.whole);
+        let h = grid.h;
+        let lim = self.config.refresh_cells;
+        // On a periodic axis a particle that wrapped around shows a jump of one box length:
+        // its displacement is taken modulo the box.
+        let period: [f64; D] = std::array::from_fn(|a| match grid.boundary[a] {
+            crate::Boundary::Periodic => grid.length(a),
+            _ => f64::INFINITY,
+        });
+        let mut growth: f64 = 1.0;
+        for p in 0..view.n_particles() {
+            let key = Self::key(view, p);
+            let dx = view.x[p] - self.x_ref[key];
+            for a in 0..D {
+                if dx[a].abs() <= lim * h[a] {
+                    continue;
+                }
+                let d = if period[a].is_finite() {
+                    dx[a] - period[a] * (dx[a] / period[a]).round()
+                } else {
+                    dx[a]
+                };
+                if d.is_nan() || d.abs() > lim * h[a] {
+                    return None;
+                }
+            }
+            let (bulk, shear) = Self::moduli(view, p);
+            let (bulk_ref, shear_ref) = self.moduli_ref[key];
+            let r_bulk = bulk / bulk_ref;
+            let r_shear = if shear_ref > 0.0 {
+                shear / shear_ref
+            } else if shear > 0.0 {
+                f64::INFINITY
+            } else {
+                0.0
+            };
+            let r = r_bulk.max(r_shear);
+            // NaN (a non-finite modulus) forces a refresh.
+            if r.is_nan() || r > growth_limit {
+                return None;
+            }
+            growth = growth.max(r);
+        }
+        Some(growth.max(self.diag_growth))
+    }
+
+    /// Keeps the positions and moduli of the analysed state. On a decomposed grid the
+    /// particles of every process, by run-wide identity (one reduction of
+    /// `n_total·(D + 2)` numbers), as particles move between processes before the next
+    /// comparison; this costs `n_total·(D + 2)` numbers of memory on every process.
+    pub(super) fn store_references(&mut self, view: &ViewNd<'_, D>) {
+        let Some(split) = &view.split else {
+            self.x_ref = view.x.to_vec();
+            self.moduli_ref = (0..view.n_particles())
+                .map(|p| Self::moduli(view, p))
+                .collect();
+            return;
+        };
+        let n = split.n_particles_total;
+        let w = D + 2;
+        let mut buf = vec![0.0; n * w];
+        for p in 0..view.n_particles() {
+            let k = split.particle_id[p] as usize * w;
+            let (bulk, shear) = Self::moduli(view, p);
+            buf[k..k + D].copy_from_slice(view.x[p].as_slice());
+            buf[k + D] = bulk;
+            buf[k + D + 1] = shear;
+        }
+        Self::agreement(&*self.reduce, view).sum(&mut buf);
+        self.x_ref = buf
+            .chunks_exact(w)
+            .map(|c| Vector::<D>::from_column_slice(&c[..D]))
+            .collect();
+        self.moduli_ref = buf.chunks_exact(w).map(|c| (c[D], c[D + 1])).collect();
+    }
+}
