@@ -363,3 +363,13 @@ fn mls_mpm_refuses_a_repeat_of_zero() {
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("--repeat"));
 }
+
+#[test]
+fn user_flip_refuses_an_unknown_scene_and_a_repeat_of_zero() {
+    let out = run("user_flip", &["--scene", "sphere"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--scene"));
+    let out = run("user_flip", &["--repeat", "0"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--repeat"));
+}

@@ -49,15 +49,18 @@ impl Model {
         }
     }
 
-    /// Stored energy per reference volume: `μ|F − R|² + λ/2 (J − 1)²` (`μ = 0` for the
-    /// fluid).
+    /// Stored energy per reference volume, the potential of the stress above
+    /// (`τ = J ψ'(J) I` for the volumetric part): the jelly's `μ|F − R|² + λ/2 (J − 1)²`
+    /// (Stomakhin et al.), the fluid's `E (J − 1 − ln J)` (whose Kirchhoff stress is
+    /// mpm88's `E (J − 1) I`).
     pub fn energy_density(&self, f: &Matrix2<f64>, j: f64) -> f64 {
         let (lambda, mu) = self.lame();
-        let shear = match self {
-            Model::Jelly { .. } => mu * (f - polar_rotation(f)).norm_squared(),
-            Model::Fluid { .. } => 0.0,
-        };
-        shear + 0.5 * lambda * (j - 1.0).powi(2)
+        match self {
+            Model::Jelly { .. } => {
+                mu * (f - polar_rotation(f)).norm_squared() + 0.5 * lambda * (j - 1.0).powi(2)
+            }
+            Model::Fluid { bulk_modulus } => bulk_modulus * (j - 1.0 - j.ln()),
+        }
     }
 }
 

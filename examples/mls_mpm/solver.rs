@@ -229,19 +229,15 @@ fn particle_to_grid(
         let stress_term = -volume0[p] * inv * tau;
         let affine = mass[p] * s.affine[p];
         if let Some(t) = totals.as_mut() {
-            t.add(
-                model,
-                &ParticleFields {
-                    mass: mass[p],
-                    volume0: volume0[p],
-                    x: &s.x[p],
-                    v: &s.v[p],
-                    f: &f,
-                    j,
-                    sigma: &s.sigma[p],
-                    density: s.density[p],
-                },
-            );
+            t.add(&ParticleFields {
+                mass: mass[p],
+                volume0: volume0[p],
+                x: &s.x[p],
+                v: &s.v[p],
+                f: &f,
+                sigma: &s.sigma[p],
+                density: s.density[p],
+            });
         }
         for a in 0..3 {
             for b in 0..3 {
