@@ -315,12 +315,18 @@ impl<const D: usize> StabilityNd<D> {
         self.applications += r.applications as u64;
         self.last_products = warm.then_some(r.applications as u64);
         self.lambda = Some(lambda);
-        if self.config.bound_slack >= 0.0 {
+        let threshold = self.bound_threshold(view);
+        if self.config.bound_slack >= 0.0
+            && self
+                .tracking
+                .worth_a_look(threshold, view_supplies_bound(view))
+        {
             let bound = self
                 .tracking
                 .bound_of(view, Self::agreement(&*self.reduce, view));
-            let threshold = self.bound_threshold(view);
             self.tracking.after_refresh(lambda, bound, threshold);
+        } else {
+            self.tracking.skipped_refresh();
         }
         Ok(lambda)
     }
@@ -342,19 +348,20 @@ impl<const D: usize> StabilityNd<D> {
         if let (Some(growth), Some(cached)) = (agreed, self.lambda) {
             return Ok((cached * growth, false));
         }
-        let young = self.age < self.config.bound_age;
-        if let Some(cached) = self
-            .lambda
-            .filter(|_| young && self.config.bound_slack >= 0.0)
-        {
+        if let Some(products) = self.last_products.filter(|_| self.age > 0) {
+            // The guard ended a Lanczos interval: what it cost per proposal.
+            self.tracking.lanczos_rate = Some(products as f64 / f64::from(self.age));
+        }
+        let threshold = self.bound_threshold(state);
+        let look = self.age < self.config.bound_age
+            && self.config.bound_slack >= 0.0
+            && self
+                .tracking
+                .worth_a_look(threshold, view_supplies_bound(state));
+        if let Some(cached) = self.lambda.filter(|_| look) {
             let bound = self
                 .tracking
                 .bound_of(state, Self::agreement(&*self.reduce, state));
-            if let Some(products) = self.last_products.filter(|_| self.age > 0) {
-                // The guard ended a Lanczos interval: what it cost per proposal.
-                self.tracking.lanczos_rate = Some(products as f64 / f64::from(self.age));
-            }
-            let threshold = self.bound_threshold(state);
             if self
                 .tracking
                 .take_instead_of_refresh(bound, cached, threshold)
@@ -374,8 +381,7 @@ impl<const D: usize> StabilityNd<D> {
     /// Lanczos value with that gain was stopped by 22 growth detections; within 1.25× it
     /// runs to the end without a rejection).
     fn bound_threshold(&self, view: &ViewNd<'_, D>) -> f64 {
-        let supplied = view.summary.is_some_and(|s| s.element_bound.is_some())
-            && self.config.transfer == TransferNd::Flip;
+        let supplied = view_supplies_bound(view) && self.config.transfer == TransferNd::Flip;
         self.tracking
             .threshold(self.config.bound_slack, self.config.product_cost, supplied)
     }
@@ -424,6 +430,13 @@ impl<const D: usize> StabilityNd<D> {
         }
         metrics
     }
+}
+
+/// Whether the stepper supplies the element bound from its own pass ([`SummaryNd`]).
+///
+/// [`SummaryNd`]: crate::nd::SummaryNd
+fn view_supplies_bound<const D: usize>(view: &ViewNd<'_, D>) -> bool {
+    view.summary.is_some_and(|s| s.element_bound.is_some())
 }
 
 impl<const D: usize> StepLimit<D> for StabilityNd<D>
