@@ -67,6 +67,7 @@ pub mod shape;
 pub mod stability;
 pub mod stepper;
 pub mod synchronized_velocity;
+pub mod view_check;
 pub mod view_weights;
 pub mod weights;
 
@@ -78,6 +79,7 @@ pub use nodal_stiffness::NodalStiffness;
 pub use pass_summary::PassSummary;
 pub use shape::Shape;
 pub use stepper::{StepError, Stepper, View};
+pub use view_check::ViewError;
 pub use synchronized_velocity::{closing_half_step, SyncVelocityError};
 pub use view_weights::{ViewWeights, WeightsCache};
 pub use weights::{WeightKind, Weights};

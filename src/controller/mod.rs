@@ -46,6 +46,7 @@ mod attempt;
 mod checkpoint;
 mod config;
 mod decision;
+mod door;
 pub mod deferral;
 mod error;
 mod filter;
@@ -73,7 +74,7 @@ pub use temporal_error::{TemporalError, TEMPORAL_ERROR};
 use crate::dimension::{Dim, Dimension};
 use crate::limit::StepLimit;
 use crate::stepper::Stepper;
-pub(crate) use attempt::first_nonfinite;
+pub(crate) use crate::view_check::first_nonfinite;
 /// The adaptive controller. Owns its config, limits, filter and statistics; drives any
 /// `&mut dyn Stepper<D>` (`D = 1` by default).
 pub struct Controller<const D: usize = 1>
@@ -85,6 +86,10 @@ where
     state: ControllerState,
     /// Global reductions over the run's processes ([`crate::reduce`]).
     reduce: std::rc::Rc<dyn crate::reduce::Reduce>,
+    /// Whether a committed view has passed the door check's contents part
+    /// ([`crate::view_check`]); not part of a checkpoint (a restored controller checks its
+    /// first view).
+    first_view_checked: bool,
 }
 
 impl<const D: usize> std::fmt::Debug for Controller<D>
@@ -126,6 +131,7 @@ where
             limits,
             state,
             reduce: std::rc::Rc::new(crate::reduce::SingleProcess),
+            first_view_checked: false,
         })
     }
 
@@ -213,6 +219,7 @@ where
             limits,
             state: checkpoint.state,
             reduce: std::rc::Rc::new(crate::reduce::SingleProcess),
+            first_view_checked: false,
         })
     }
 
