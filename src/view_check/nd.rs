@@ -3,7 +3,7 @@
 use super::rows::{check_rows, Rows};
 use super::{check_counts, finite, ViewError};
 use crate::grid::Boundary;
-use crate::nd::{GridNd, ViewNd};
+use crate::nd::{GridNd, Vector, ViewNd};
 
 impl<const D: usize> ViewNd<'_, D> {
     /// The O(1) part of the door check: every particle array has the particle count as
@@ -142,6 +142,8 @@ impl<'v, 'a, const D: usize> NdRows<'v, 'a, D> {
 }
 
 impl<const D: usize> Rows<D> for NdRows<'_, '_, D> {
+    type Grad = Vector<D>;
+
     fn n_particles(&self) -> usize {
         self.view.weights.n_particles()
     }
@@ -151,25 +153,28 @@ impl<const D: usize> Rows<D> for NdRows<'_, '_, D> {
     }
 
     #[inline]
-    fn row(&self, p: usize) -> (&[u32], &[f64]) {
-        (self.view.weights.nodes_of(p), self.view.weights.s_of(p))
+    fn row(&self, p: usize) -> (&[u32], &[f64], &[Vector<D>]) {
+        let w = self.view.weights;
+        (w.nodes_of(p), w.s_of(p), w.grad_of(p))
     }
 
     #[inline]
-    fn grad(&self, p: usize, k: usize) -> [f64; D] {
-        self.view.weights.grad_of(p)[k].into()
+    fn components(g: Vector<D>) -> [f64; D] {
+        g.into()
     }
 
     #[inline]
-    fn offset(&self, p: usize, node: usize) -> [f64; D] {
-        let x = &self.view.x[p];
-        std::array::from_fn(|a| {
-            let d = self.position[node][a] - x[a];
-            match self.period[a] {
-                Some(l) => d - l * (d / l).round(),
-                None => d,
-            }
-        })
+    fn node(&self, i: usize) -> [f64; D] {
+        self.position[i]
+    }
+
+    #[inline]
+    fn particle(&self, p: usize) -> [f64; D] {
+        self.view.x[p].into()
+    }
+
+    fn period(&self) -> [Option<f64>; D] {
+        self.period
     }
 
     fn complete_along(&self, a: usize) -> bool {

@@ -109,6 +109,8 @@ struct OneDRows<'v, 'a> {
 }
 
 impl Rows<1> for OneDRows<'_, '_> {
+    type Grad = f64;
+
     fn n_particles(&self) -> usize {
         self.weights.n_particles()
     }
@@ -118,19 +120,29 @@ impl Rows<1> for OneDRows<'_, '_> {
     }
 
     #[inline]
-    fn row(&self, p: usize) -> (&[u32], &[f64]) {
-        (self.weights.nodes_of(p), self.weights.s_of(p))
+    fn row(&self, p: usize) -> (&[u32], &[f64], &[f64]) {
+        let w = self.weights;
+        (w.nodes_of(p), w.s_of(p), w.d_of(p))
     }
 
     #[inline]
-    fn grad(&self, p: usize, k: usize) -> [f64; 1] {
-        [self.weights.d_of(p)[k]]
+    fn components(g: f64) -> [f64; 1] {
+        [g]
     }
 
     #[inline]
-    fn offset(&self, p: usize, node: usize) -> [f64; 1] {
-        // `Grid::offset` takes the nearest periodic image.
-        [self.view.grid.offset(node, self.view.x[p])]
+    fn node(&self, i: usize) -> [f64; 1] {
+        [self.view.grid.node_x(i)]
+    }
+
+    #[inline]
+    fn particle(&self, p: usize) -> [f64; 1] {
+        [self.view.x[p]]
+    }
+
+    fn period(&self) -> [Option<f64>; 1] {
+        let g = self.view.grid;
+        [(g.boundary == Boundary::Periodic).then(|| g.length())]
     }
 
     fn complete_along(&self, _: usize) -> bool {
