@@ -63,9 +63,9 @@ where
         shape.push(t_shape);
         ratio.push(t_contents / t_step);
     }
-    let (lo, hi) = ratio.iter().fold((f64::MAX, 0.0_f64), |(lo, hi), &r| {
-        (lo.min(r), hi.max(r))
-    });
+    let (lo, hi) = ratio
+        .iter()
+        .fold((f64::MAX, 0.0_f64), |(lo, hi), &r| (lo.min(r), hi.max(r)));
     let step = median(&mut step);
     println!(
         "{label:<28} step {:>9.3} ms | contents {:>8.3} ms = {:>5.1} % of a step (rounds {:.1}–{:.1} %) | shape {:>6.3} µs = {:.4} %",
@@ -92,7 +92,10 @@ fn main() {
         let dt = 0.5 * s.grid().h_min() / common::MATERIAL.p_modulus().sqrt();
         compare::<3>(&format!("3D {shape:?} 1e5"), &mut s, dt, rounds);
     }
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/scenarios/gimp_uniform_1e5.json");
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenarios/gimp_uniform_1e5.json"
+    );
     let scenario = Scenario::from_file(path).expect("scenario");
     let mut s = scenario.build().expect("solver");
     let dt = 0.5 * s.view().grid.h / scenario.youngs_modulus.sqrt();

@@ -44,7 +44,9 @@ impl GoesWrong {
         let w = self.inner.view().weights;
         let n = w.n_particles();
         let nodes = (0..n).flat_map(|p| w.nodes_of(p).to_vec()).collect();
-        let s = (0..n).flat_map(|p| w.s_of(p).iter().map(|s| 0.5 * s)).collect();
+        let s = (0..n)
+            .flat_map(|p| w.s_of(p).iter().map(|s| 0.5 * s))
+            .collect();
         let g = (0..n).flat_map(|p| w.grad_of(p).to_vec()).collect();
         self.halved = WeightsNd::from_rows(w.n_nodes(), w.width(), nodes, s, g).expect("rows");
     }
@@ -200,7 +202,9 @@ fn every_process_stops_when_one_view_fails_the_door() {
     let mut s = GoesWrong::new(u64::MAX, false);
     let mut c = controller().with_reduce(std::rc::Rc::new(OtherProcessFailsTheDoor));
     let mut attempts = 0;
-    let err = c.run_until(&mut s, 1.0, &mut |_| attempts += 1).unwrap_err();
+    let err = c
+        .run_until(&mut s, 1.0, &mut |_| attempts += 1)
+        .unwrap_err();
     assert!(
         matches!(err, ControllerError::OtherRank { phase, .. } if phase.contains("door")),
         "{err}"

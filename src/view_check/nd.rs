@@ -57,7 +57,9 @@ impl<const D: usize> ViewNd<'_, D> {
             finite(array, values, 1)?;
         }
         finite_nd("node_velocity", self.node_velocity, |m| m.as_slice())?;
-        finite_nd("node_acceleration", self.node_acceleration, |m| m.as_slice())?;
+        finite_nd("node_acceleration", self.node_acceleration, |m| {
+            m.as_slice()
+        })?;
         if let Some(s) = self.split {
             let whole = s.whole.n_nodes();
             if let Some((i, &g)) = s

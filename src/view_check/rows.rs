@@ -103,13 +103,13 @@ fn row_sums<const D: usize, R: Rows<D>>(
             }
         });
         sums.s += w;
-        for b in 0..D {
-            sums.g[b] += g[b];
-            sums.g_abs[b] += g[b].abs();
-            for a in 0..D {
-                sums.moment[a][b] += d[a] * g[b];
+        for (b, &gb) in g.iter().enumerate() {
+            sums.g[b] += gb;
+            sums.g_abs[b] += gb.abs();
+            for (a, &da) in d.iter().enumerate() {
+                sums.moment[a][b] += da * gb;
                 if magnitudes {
-                    sums.moment_abs[a][b] += (d[a] * g[b]).abs();
+                    sums.moment_abs[a][b] += (da * gb).abs();
                 }
             }
         }
@@ -126,6 +126,12 @@ fn passes<const D: usize>(sums: &Sums<D>, along: &[bool; D], relative: bool) -> 
     let partition = (sums.s - 1.0).abs() <= tol;
     let gradients = (0..D).all(|b| sums.g[b].abs() <= tol * sums.g_abs[b]);
     partition && gradients && (0..D).all(|a| !along[a] || moment_ok(sums, a, relative))
+}
+
+/// `|x| ≤ tol`, false for a NaN.
+#[inline]
+fn within(x: f64, tol: f64) -> bool {
+    x.abs() <= tol
 }
 
 /// Row `a` of the completeness identity holds.
@@ -154,13 +160,13 @@ fn judge<const D: usize, R: Rows<D>>(
     }
     non_finite_entry(rows, p)?;
     let tol = WEIGHT_TOLERANCE;
-    if !((sums.s - 1.0).abs() <= tol) {
+    if !within(sums.s - 1.0, tol) {
         return Err(ViewError::PartitionOfUnity {
             particle: p,
             sum: sums.s,
         });
     }
-    if let Some(axis) = (0..D).find(|&b| !(sums.g[b].abs() <= tol * sums.g_abs[b])) {
+    if let Some(axis) = (0..D).find(|&b| !within(sums.g[b], tol * sums.g_abs[b])) {
         return Err(ViewError::GradientSum {
             particle: p,
             axis,
@@ -171,7 +177,7 @@ fn judge<const D: usize, R: Rows<D>>(
         for b in 0..D {
             let expected = if a == b { 1.0 } else { 0.0 };
             let value = sums.moment[a][b];
-            if !((value - expected).abs() <= tol * sums.moment_abs[a][b].max(1.0)) {
+            if !within(value - expected, tol * sums.moment_abs[a][b].max(1.0)) {
                 return Err(ViewError::GradientMoment {
                     particle: p,
                     row: a,
