@@ -26,7 +26,9 @@
 //! The controller is generic over the dimension, `Controller<D>` (`D = 1` by default):
 //! it drives any `&mut dyn Stepper<D>` with `Box<dyn StepLimit<D>>` limits, and reads the
 //! state only through the limits and [`crate::StateView`] (time, step, the non-finite
-//! check). A 2D or 3D solver is driven exactly like a 1D one, with d-dimensional limits
+//! check, and the door check of every view before a limit reads it:
+//! [`crate::view_check`], ending the run with [`ControllerError::InvalidView`]). A 2D or
+//! 3D solver is driven exactly like a 1D one, with d-dimensional limits
 //! (`Controller::<2>::new(config, limits)`).
 //!
 //! Every attempt yields a [`Decision`], emitted as an INFO `tracing` event inside one
