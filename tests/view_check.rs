@@ -348,3 +348,63 @@ proptest! {
         prop_assert_eq!((len, expected), (full - k, full));
     }
 }
+
+/// MLS-MPM's effective gradients `∇S_ip = (4/h²) S_ip (X_i − x_p)` of a quadratic B-spline
+/// satisfy the identities, also for stencils that wrap around a periodic box (node offsets
+/// by minimum image); with `4/h` instead of `4/h²` they are refused.
+#[test]
+fn mls_gradients_pass_also_across_a_periodic_boundary() {
+    let (solver, _) = scenario("plane_p_2d.json").build::<2>().expect("solver");
+    let view = solver.view();
+    let grid = view.grid;
+    let h = grid.h[0];
+    let l = grid.length(0);
+    // Every particle moved by 0.37 h and wrapped: many stencils straddle x = 0 or y = 0.
+    let x: Vec<Vector<2>> = view
+        .x
+        .iter()
+        .map(|x| x.map(|c| (c + 0.37 * h).rem_euclid(l)))
+        .collect();
+    let rows = |inv: f64| {
+        let (mut nodes, mut s, mut g) = (vec![], vec![], vec![]);
+        for xp in &x {
+            let base = xp.map(|c| (c / h - 0.5).floor());
+            for b in 0..3 {
+                for a in 0..3 {
+                    let j = [base[0] as i64 + a, base[1] as i64 + b];
+                    let node = Vector::<2>::new(j[0] as f64 * h, j[1] as f64 * h);
+                    let d = node - xp;
+                    let w1 = |r: f64| match r.abs() / h {
+                        q if q < 0.5 => 0.75 - q * q,
+                        q if q < 1.5 => 0.5 * (1.5 - q).powi(2),
+                        _ => 0.0,
+                    };
+                    let w = w1(d[0]) * w1(d[1]);
+                    nodes.push(grid.flat_index(j).expect("periodic") as u32);
+                    s.push(w);
+                    g.push(inv * w * d);
+                }
+            }
+        }
+        WeightsNd::from_rows(grid.n_nodes(), 9, nodes, s, g).expect("rows")
+    };
+    let mls = rows(4.0 / (h * h));
+    let moved = ViewNd {
+        x: &x,
+        weights: &mls,
+        summary: None,
+        ..view
+    };
+    moved.check().expect("MLS gradients are complete");
+    let wrong = rows(4.0 / h);
+    let e = ViewNd {
+        weights: &wrong,
+        ..moved
+    }
+    .check()
+    .unwrap_err();
+    assert!(
+        matches!(e, ViewError::GradientMoment { value, .. } if (value - h).abs() < 1e-9),
+        "{e}"
+    );
+}
