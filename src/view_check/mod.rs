@@ -67,13 +67,16 @@
 //! check on every view could be allowed. So it runs on the first committed view a
 //! controller reads (whatever its step index: a controller restored from a checkpoint
 //! checks its first view too) and then on the first attempt of every step whose index is a
-//! multiple of [`VIEW_CHECK_CADENCE`] (64): under 1.5 % of the bare steps in 1D, under
-//! 1 % in 2D and 3D. Trial views are checked for shape, and for finite particle fields
+//! multiple of [`VIEW_CHECK_CADENCE`] (64): about 1.5 % of the bare steps in 1D
+//! (95 % / 64), under 1 % in 2D and 3D, and less of a controlled step, which adds the
+//! limits' work. Trial views are checked for shape, and for finite particle fields
 //! by the controller's trial scan as before (a non-finite trial is rejected and retried);
 //! their weights are checked when they have become a committed view on the cadence.
 //!
 //! In a distributed run ([`crate::reduce`]) the processes agree on the outcome (one
-//! [`crate::reduce::Reduce::any_flags`] per attempt) before any limit reads the view: a
+//! [`crate::reduce::Reduce::any_flags`] per attempt when there is more than one process)
+//! before any limit reads the view, whose collectives a process with a misshapen view
+//! could not take part in: a
 //! process whose view fails returns its [`ViewError`], the others
 //! `ControllerError::OtherRank`.
 
