@@ -325,6 +325,20 @@ fn valid_views_pass() {
             s.view().check().unwrap_or_else(|e| panic!("{name}: {e}"));
         }
     }
+    // The views of a grid-decomposed solver (window, global node map, particle ids) on
+    // one process, across a periodic axis and between walls.
+    for name in ["periodic_disks_2d.json", "colliding_disks.json"] {
+        let reduce = std::rc::Rc::new(mpm_dt::reduce::SingleProcess);
+        let (mut s, _) = scenario(name).build_slab::<2>(reduce).expect("solver");
+        assert!(s.view().split.is_some(), "{name}: a split view");
+        for _ in 0..3 {
+            s.view()
+                .check()
+                .unwrap_or_else(|e| panic!("{name} (slab): {e}"));
+            s.try_step(1e-3).expect("trial");
+            s.accept().expect("accept");
+        }
+    }
     for name in ["colliding_spheres.json", "plane_s_3d_bspline.json"] {
         let (s, _) = scenario(name).build::<3>().expect("solver");
         s.view().check().unwrap_or_else(|e| panic!("{name}: {e}"));
@@ -405,6 +419,42 @@ fn mls_gradients_pass_also_across_a_periodic_boundary() {
     .unwrap_err();
     assert!(
         matches!(e, ViewError::GradientMoment { value, .. } if (value - h).abs() < 1e-9),
+        "{e}"
+    );
+}
+
+/// Weight rows a solver filled in place (`WeightsNd::storage_mut`, unchecked): a node index
+/// past the grid and a NaN weight are named with their particle.
+#[test]
+fn rows_filled_in_place_are_checked() {
+    let (solver, _) = scenario("plane_p_2d.json").build::<2>().expect("solver");
+    let view = solver.view();
+    let n = view.n_particles();
+    let mut w = view.weights.clone();
+    let (nodes, s, _) = w.storage_mut(n);
+    let kept = nodes[9 * 7 + 2];
+    nodes[9 * 7 + 2] = view.n_nodes() as u32;
+    s[9 * 11 + 4] = f64::NAN;
+    let e = ViewNd {
+        weights: &w,
+        ..view
+    }
+    .check()
+    .unwrap_err();
+    assert!(
+        matches!(e, ViewError::NodeOutOfRange { array: "weights.nodes", index: 7, node, .. } if node == view.n_nodes()),
+        "{e}"
+    );
+    let (nodes, _, _) = w.storage_mut(n);
+    nodes[9 * 7 + 2] = kept;
+    let e = ViewNd {
+        weights: &w,
+        ..view
+    }
+    .check()
+    .unwrap_err();
+    assert!(
+        matches!(e, ViewError::NonFinite { array: "weights.s", index: 11, value } if value.is_nan()),
         "{e}"
     );
 }

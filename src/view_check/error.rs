@@ -43,14 +43,18 @@ pub enum ViewError {
         /// The value.
         value: f64,
     },
-    /// A weight row refers to a node that is not stored.
-    #[error("weights: particle {particle} refers to node {node} (n_nodes = {n_nodes})")]
+    /// A node index that does not exist: in a weight row (`"weights.nodes"`, `index` the
+    /// particle) or in a split view's map to the whole grid (`"split.global_node"`,
+    /// `index` the local node).
+    #[error("{array}: entry {index} refers to node {node}, of {n_nodes}")]
     NodeOutOfRange {
-        /// Particle index.
-        particle: usize,
+        /// Which array.
+        array: &'static str,
+        /// Particle (weights) or local node (split map) index.
+        index: usize,
         /// The node index.
         node: usize,
-        /// Number of nodes.
+        /// Number of nodes it must be below.
         n_nodes: usize,
     },
     /// A particle's weights do not sum to one (`Σ_i S_ip = 1`).
@@ -93,10 +97,11 @@ impl ViewError {
     /// grid that does not match the nodal arrays).
     pub fn array(&self) -> &'static str {
         match self {
-            ViewError::Length { array, .. } | ViewError::NonFinite { array, .. } => array,
+            ViewError::Length { array, .. }
+            | ViewError::NonFinite { array, .. }
+            | ViewError::NodeOutOfRange { array, .. } => array,
             ViewError::Grid { .. } => "grid",
-            ViewError::NodeOutOfRange { .. }
-            | ViewError::PartitionOfUnity { .. }
+            ViewError::PartitionOfUnity { .. }
             | ViewError::GradientSum { .. }
             | ViewError::GradientMoment { .. } => "weights",
         }
@@ -106,9 +111,10 @@ impl ViewError {
     pub fn index(&self) -> Option<usize> {
         match self {
             ViewError::Length { .. } | ViewError::Grid { .. } => None,
-            ViewError::NonFinite { index, .. } => Some(*index),
-            ViewError::NodeOutOfRange { particle, .. }
-            | ViewError::PartitionOfUnity { particle, .. }
+            ViewError::NonFinite { index, .. } | ViewError::NodeOutOfRange { index, .. } => {
+                Some(*index)
+            }
+            ViewError::PartitionOfUnity { particle, .. }
             | ViewError::GradientSum { particle, .. }
             | ViewError::GradientMoment { particle, .. } => Some(*particle),
         }

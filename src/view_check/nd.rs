@@ -68,10 +68,11 @@ impl<const D: usize> ViewNd<'_, D> {
                 .enumerate()
                 .find(|(_, &g)| g as usize >= whole)
             {
-                return Err(ViewError::NonFinite {
+                return Err(ViewError::NodeOutOfRange {
                     array: "split.global_node",
                     index: i,
-                    value: f64::from(g),
+                    node: g as usize,
+                    n_nodes: whole,
                 });
             }
         }

@@ -59,7 +59,8 @@ pub(super) fn check_rows<const D: usize, R: Rows<D>>(rows: &R) -> Result<(), Vie
         let (nodes, _, _) = rows.row(p);
         if let Some(&node) = nodes.iter().find(|&&i| i as usize >= n_nodes) {
             return Err(ViewError::NodeOutOfRange {
-                particle: p,
+                array: "weights.nodes",
+                index: p,
                 node: node as usize,
                 n_nodes,
             });
