@@ -65,10 +65,10 @@ where
         let mut rejections: u32 = 0;
         loop {
             let attempt = rejections + 1;
-            // 1. Proposals from the committed state.
+            // 0. The door: the committed view is checked before any limit reads it.
             let view = stepper.view();
-            // 0. The door: the view is checked before any limit reads it.
             self.check_committed(&view, attempt)?;
+            // 1. Proposals from the committed state.
             let mut records = Vec::with_capacity(self.limits.len());
             let mut bounds: Vec<(BoundName, f64)> = Vec::with_capacity(self.limits.len() + 5);
             // An error before the trial is held until the processes have agreed on the
