@@ -29,7 +29,7 @@ enum Misuse {
 }
 
 /// The arrays a truncation can hit, in the order of [`Misuse::Truncate`].
-const ARRAYS: [&str; 13] = [
+const ARRAYS: [&str; 14] = [
     "x",
     "v",
     "sigma",
@@ -43,6 +43,7 @@ const ARRAYS: [&str; 13] = [
     "node_velocity",
     "node_acceleration",
     "node_active",
+    "weights",
 ];
 
 /// A 2D solver whose committed view carries one misuse (its trials are the inner
@@ -63,7 +64,7 @@ impl Tampered {
         let w = view.weights;
         let n = w.n_particles();
         let h = view.grid.h[0];
-        let rows = |f: &dyn Fn(usize, usize) -> (f64, Vector<2>)| {
+        let rows = |n: usize, f: &dyn Fn(usize, usize) -> (f64, Vector<2>)| {
             let nodes: Vec<u32> = (0..n).flat_map(|p| w.nodes_of(p).to_vec()).collect();
             let (s, g): (Vec<f64>, Vec<Vector<2>>) = (0..n)
                 .flat_map(|p| (0..w.width()).map(move |k| (p, k)))
@@ -72,8 +73,14 @@ impl Tampered {
             WeightsNd::from_rows(w.n_nodes(), w.width(), nodes, s, g).expect("rows")
         };
         let weights = match misuse {
-            Misuse::HalfWeights => rows(&|p, k| (0.5 * w.s_of(p)[k], w.grad_of(p)[k])),
-            Misuse::GradientsWithoutInverseH => rows(&|p, k| (w.s_of(p)[k], h * w.grad_of(p)[k])),
+            Misuse::HalfWeights => rows(n, &|p, k| (0.5 * w.s_of(p)[k], w.grad_of(p)[k])),
+            Misuse::GradientsWithoutInverseH => {
+                rows(n, &|p, k| (w.s_of(p)[k], h * w.grad_of(p)[k]))
+            }
+            // The last `k` particles' rows left out.
+            Misuse::Truncate(which, k) if ARRAYS[which] == "weights" => {
+                rows(n.saturating_sub(k), &|p, k| (w.s_of(p)[k], w.grad_of(p)[k]))
+            }
             _ => w.clone(),
         };
         let mut v = view.v.to_vec();
@@ -130,6 +137,7 @@ impl Stepper<2> for Tampered {
                     "node_velocity" => t.node_velocity = cut(view.node_velocity, k),
                     "node_acceleration" => t.node_acceleration = cut(view.node_acceleration, k),
                     "node_active" => t.node_active = cut(view.node_active, k),
+                    "weights" => t.weights = &self.weights,
                     other => unreachable!("{other}"),
                 }
                 t
@@ -346,7 +354,7 @@ fn valid_views_pass() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(48))]
+    #![proptest_config(ProptestConfig::with_cases(64))]
 
     /// Truncating any array of a valid view by any number of elements is a typed error
     /// naming that array: no panic, no run on it.
@@ -354,7 +362,8 @@ proptest! {
     fn a_truncated_array_is_named(which in 0..ARRAYS.len(), k in 1usize..40) {
         let mut s = tampered(Misuse::Truncate(which, k));
         let e = door_error(&mut s, None);
-        let full = if which < 9 { s.inner.view().n_particles() } else { s.inner.view().n_nodes() };
+        let particles = which < 9 || ARRAYS[which] == "weights";
+        let full = if particles { s.inner.view().n_particles() } else { s.inner.view().n_nodes() };
         prop_assert_eq!(e.array(), ARRAYS[which], "{}", e);
         let ViewError::Length { len, expected, .. } = e else {
             return Err(TestCaseError::fail(format!("not a length error: {e}")));
