@@ -15,6 +15,7 @@
 
 use crate::nd::ViewNd;
 use crate::stepper::View;
+use crate::view_check::ViewError;
 
 /// The dimension `D` as a type (`Dim<2>`), so that it can carry the view type.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -57,6 +58,12 @@ pub trait StateView {
     /// The first non-finite value among the particle positions, velocities, stresses and
     /// deformation gradients (in that order), as (field name, particle index, value).
     fn first_nonfinite(&self) -> Option<(&'static str, usize, f64)>;
+    /// The O(1) part of the door check ([`crate::view_check`]): the arrays' lengths agree
+    /// with the particle count and with the grid. Returns the particle count.
+    fn check_shape(&self) -> Result<usize, ViewError>;
+    /// The O(n) part of the door check ([`crate::view_check`]): a finite state, weights that
+    /// form a partition of unity with complete gradients.
+    fn check_contents(&self) -> Result<(), ViewError>;
 }
 
 impl StateView for View<'_> {
@@ -74,5 +81,13 @@ impl StateView for View<'_> {
 
     fn first_nonfinite(&self) -> Option<(&'static str, usize, f64)> {
         crate::controller::first_nonfinite(self)
+    }
+
+    fn check_shape(&self) -> Result<usize, ViewError> {
+        View::check_shape(self)
+    }
+
+    fn check_contents(&self) -> Result<(), ViewError> {
+        View::check_contents(self)
     }
 }

@@ -24,6 +24,9 @@
 //! * [`synchronized_velocity`] — the particle velocity at the state's time, second order in
 //!   dt: the USL step's velocity lags half a step, a closing half kick
 //!   ([`View::synchronized_velocity`]) removes the lag.
+//! * [`view_check`] — what the controller checks of every view before a limit reads it
+//!   (array lengths, the grid, a finite state, weights forming a partition of unity with
+//!   complete gradients) and the typed [`ViewError`] naming what is wrong.
 //! * [`controller`] — the adaptive controller combining the limits
 //!   ([`controller::Controller::standard`] builds the paper's three plus a growth monitor).
 //!
@@ -67,6 +70,7 @@ pub mod shape;
 pub mod stability;
 pub mod stepper;
 pub mod synchronized_velocity;
+pub mod view_check;
 pub mod view_weights;
 pub mod weights;
 
@@ -79,5 +83,6 @@ pub use pass_summary::PassSummary;
 pub use shape::Shape;
 pub use stepper::{StepError, Stepper, View};
 pub use synchronized_velocity::{closing_half_step, SyncVelocityError};
+pub use view_check::ViewError;
 pub use view_weights::{ViewWeights, WeightsCache};
 pub use weights::{WeightKind, Weights};

@@ -5,7 +5,7 @@ use super::{bound, metric, Controller, ControllerError, Decision, LimitRecord, O
 use crate::dimension::{Dim, Dimension, StateView};
 use crate::fmt_num::Num;
 use crate::limit::{RejectCause, Verdict};
-use crate::stepper::{StepError, Stepper, View};
+use crate::stepper::{StepError, Stepper};
 
 /// Relative tolerance under which `t` counts as having reached `t_end`.
 pub(super) fn reached(t: f64, t_end: f64) -> bool {
@@ -22,35 +22,6 @@ enum BoundName {
     Limit(usize),
     /// A bound that is not a limit ([`bound`]).
     Named(&'static str),
-}
-
-/// The first non-finite value of the trial's `x`, `v`, `σ`, `F` (in that order), if any.
-///
-/// Runs on every trial: a trusted pass summary is the stepper's guarantee that the trial is
-/// finite (`crate::pass_summary`); else a vectorised pass per field confirms the normal
-/// case (all finite) and only a failing field is searched element by element for the first
-/// bad index.
-pub(crate) fn first_nonfinite(view: &View<'_>) -> Option<(&'static str, usize, f64)> {
-    if view.trusted_summary().is_some() {
-        return None;
-    }
-    if [view.x, view.v, view.sigma, view.f]
-        .into_iter()
-        .all(crate::stability::all_finite)
-    {
-        return None;
-    }
-    for (name, field) in [
-        ("x", view.x),
-        ("v", view.v),
-        ("sigma", view.sigma),
-        ("F", view.f),
-    ] {
-        if let Some((i, &v)) = field.iter().enumerate().find(|(_, v)| !v.is_finite()) {
-            return Some((name, i, v));
-        }
-    }
-    None
 }
 
 /// Priority of rejection causes when several limits reject one trial.
@@ -94,8 +65,10 @@ where
         let mut rejections: u32 = 0;
         loop {
             let attempt = rejections + 1;
-            // 1. Proposals from the committed state.
+            // 0. The door: the committed view is checked before any limit reads it.
             let view = stepper.view();
+            self.check_committed(&view, attempt)?;
+            // 1. Proposals from the committed state.
             let mut records = Vec::with_capacity(self.limits.len());
             let mut bounds: Vec<(BoundName, f64)> = Vec::with_capacity(self.limits.len() + 5);
             // An error before the trial is held until the processes have agreed on the
@@ -255,6 +228,10 @@ where
                         });
                         break 'trial;
                     };
+                    if let Some(e) = super::door::check_trial(&after) {
+                        fatal = Some(e);
+                        break 'trial;
+                    }
                     if let Some((field, index, value)) = after.first_nonfinite() {
                         cause = Some(RejectCause::NonFinite);
                         rejected_by = Some("state".to_string());

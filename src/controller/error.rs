@@ -7,6 +7,7 @@ use super::Controller;
 use crate::fmt_num::Num;
 use crate::limit::{LimitError, RejectCause};
 use crate::stepper::StepError;
+use crate::view_check::ViewError;
 
 /// Why the controller stopped.
 #[derive(Debug, thiserror::Error)]
@@ -117,9 +118,27 @@ pub enum ControllerError {
     OtherRank {
         /// Time of the committed state.
         t: f64,
-        /// When: `"before its trial"`, `"in its trial"`, or `"with growth persisting"`
+        /// When: `"at the door check of its view"` (its view failed
+        /// [`crate::view_check`]: [`ControllerError::InvalidView`]), `"before its trial"`,
+        /// `"in its trial"`, or `"with growth persisting"`
         /// (its growth monitor ended the run: [`ControllerError::GrowthPersists`]).
         phase: &'static str,
+    },
+    /// A view the stepper handed over does not describe one consistent state (the door
+    /// check, [`crate::view_check`]): an array of the wrong length, a grid that does not
+    /// match the nodal arrays, a non-finite committed value, weights that are not a
+    /// partition of unity or gradients that are not complete. A smaller step cannot cure
+    /// it: the run ends before any limit reads the view.
+    #[error("invalid {} view at t = {} (step {step}): {source}", if *trial { "trial" } else { "committed" }, Num(*t))]
+    InvalidView {
+        /// Time of the view.
+        t: f64,
+        /// Its step index.
+        step: u64,
+        /// Whether it is the trial view (else the committed view).
+        trial: bool,
+        /// What is wrong: the array, the particle or node, the value.
+        source: ViewError,
     },
     /// A checkpoint does not fit the controller's limits.
     #[error("cannot restore checkpoint: {message}")]

@@ -26,7 +26,9 @@
 //! The controller is generic over the dimension, `Controller<D>` (`D = 1` by default):
 //! it drives any `&mut dyn Stepper<D>` with `Box<dyn StepLimit<D>>` limits, and reads the
 //! state only through the limits and [`crate::StateView`] (time, step, the non-finite
-//! check). A 2D or 3D solver is driven exactly like a 1D one, with d-dimensional limits
+//! check, and the door check of every view before a limit reads it:
+//! [`crate::view_check`], ending the run with [`ControllerError::InvalidView`]). A 2D or
+//! 3D solver is driven exactly like a 1D one, with d-dimensional limits
 //! (`Controller::<2>::new(config, limits)`).
 //!
 //! Every attempt yields a [`Decision`], emitted as an INFO `tracing` event inside one
@@ -47,6 +49,7 @@ mod checkpoint;
 mod config;
 mod decision;
 pub mod deferral;
+mod door;
 mod error;
 mod filter;
 mod growth;
@@ -73,7 +76,7 @@ pub use temporal_error::{TemporalError, TEMPORAL_ERROR};
 use crate::dimension::{Dim, Dimension};
 use crate::limit::StepLimit;
 use crate::stepper::Stepper;
-pub(crate) use attempt::first_nonfinite;
+pub(crate) use crate::view_check::first_nonfinite;
 /// The adaptive controller. Owns its config, limits, filter and statistics; drives any
 /// `&mut dyn Stepper<D>` (`D = 1` by default).
 pub struct Controller<const D: usize = 1>
@@ -85,6 +88,10 @@ where
     state: ControllerState,
     /// Global reductions over the run's processes ([`crate::reduce`]).
     reduce: std::rc::Rc<dyn crate::reduce::Reduce>,
+    /// Whether a committed view has passed the door check's contents part
+    /// ([`crate::view_check`]); not part of a checkpoint (a restored controller checks its
+    /// first view).
+    first_view_checked: bool,
 }
 
 impl<const D: usize> std::fmt::Debug for Controller<D>
@@ -126,6 +133,7 @@ where
             limits,
             state,
             reduce: std::rc::Rc::new(crate::reduce::SingleProcess),
+            first_view_checked: false,
         })
     }
 
@@ -213,6 +221,7 @@ where
             limits,
             state: checkpoint.state,
             reduce: std::rc::Rc::new(crate::reduce::SingleProcess),
+            first_view_checked: false,
         })
     }
 

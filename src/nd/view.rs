@@ -165,6 +165,14 @@ impl<const D: usize> StateView for ViewNd<'_, D> {
         self.x.len()
     }
 
+    fn check_shape(&self) -> Result<usize, crate::ViewError> {
+        ViewNd::check_shape(self)
+    }
+
+    fn check_contents(&self) -> Result<(), crate::ViewError> {
+        ViewNd::check_contents(self)
+    }
+
     fn first_nonfinite(&self) -> Option<(&'static str, usize, f64)> {
         // The stepper's own check, when it made one.
         if self.summary.is_some_and(|s| s.finite) {
