@@ -2,7 +2,9 @@
 //!
 //! * [`SoundSpeedNd`] — `α · min_p min_a h_a/(c_p + |v_a|)` (eq 49 generalised);
 //! * [`StabilityNd`] — `safety · √(2/λmax(M⁻¹K))` (eq 56 generalised, [`stiffness`]),
-//!   `λmax` refreshed by Lanczos only when particles have moved or moduli changed enough;
+//!   `λmax` refreshed by Lanczos only when particles have moved or moduli changed enough,
+//!   or stepped on the guaranteed element bound ([`element_bound`]) where that is close
+//!   ([`bound_tracking`]);
 //! * [`TemporalErrorNd`] — the temporal local error of eqs 20–30, judged by `dsm ≤ 1`
 //!   (the controller's filter turns `dsm` into a proposal);
 //! * [`GrowthNd`] — rejects a step whose mechanical energy grows and lowers the safety;
@@ -35,7 +37,7 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
-mod bound_tracking;
+pub mod bound_tracking;
 pub mod critical;
 pub mod element_bound;
 pub mod full_map;
