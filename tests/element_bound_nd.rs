@@ -234,3 +234,39 @@ fn opting_in_takes_the_generic_paths_steps() {
         assert_eq!(a.to_bits(), b.to_bits(), "steps differ: {a} against {b}");
     }
 }
+
+/// On the linear-hat layout with nearly empty nodes (`linear_small_mass_2d`), where the
+/// bound is tight at the light node and the limit steps on it, no accepted step exceeds
+/// the frozen-particle limit `√(2/λ_dense)` of the state it starts from.
+#[test]
+fn steps_on_the_light_node_layout_stay_below_the_frozen_particle_limit() {
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenarios/nd/linear_small_mass_2d.json"
+    );
+    let sc = mpm_dt::nd::scenario::ScenarioNd::from_file(path).unwrap();
+    let (mut s, _) = sc.build::<2>().unwrap();
+    let config = sc.controller_config().unwrap();
+    let limits = standard_limits::<2>(&config, Vector::<2>::zeros());
+    let mut controller = Controller::<2>::new(config, limits).unwrap();
+    let (mut worst, mut on_bound) = (0.0f64, 0.0);
+    while s.time() < sc.t_end * (1.0 - 1e-12) {
+        let dense = dense_lambda_max(&s.view()).unwrap();
+        let decisions = controller.step(&mut s, sc.t_end).unwrap();
+        let decision = decisions.last().unwrap();
+        worst = worst.max(decision.dt / (2.0 / dense).sqrt());
+        for l in decision.limits.iter().filter(|l| l.name == STABILITY) {
+            on_bound = l
+                .metrics
+                .get("bound_proposals")
+                .copied()
+                .unwrap_or(on_bound);
+        }
+    }
+    eprintln!("largest step over the frozen limit: {worst:.4}; {on_bound} steps on the bound");
+    assert!(
+        on_bound > 0.0,
+        "the bound was never stepped on: the test is vacuous"
+    );
+    assert!(worst <= 1.0, "a step {worst}× the frozen-particle limit");
+}
