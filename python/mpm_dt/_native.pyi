@@ -8,7 +8,7 @@ import numpy as np
 import numpy.typing as npt
 
 FloatArray = Union[npt.NDArray[np.float64], npt.NDArray[np.float32]]
-StateDict = Mapping[str, Any]
+StateDict = dict[str, Any]
 Decision = dict[str, Any]
 
 class Stepper(Protocol):
@@ -46,5 +46,5 @@ class Controller:
     @property
     def stats(self) -> dict[str, Any]: ...
 
-def critical_dt(state: StateDict) -> dict[str, Any]: ...
-def max_stable_modulus(state: StateDict, dt: float) -> float: ...
+def critical_dt(state: StateDict, full_map: bool = False) -> dict[str, Any]: ...
+def max_stable_modulus(state: StateDict, dt: float, method: str = "eq56") -> float: ...

@@ -42,7 +42,11 @@ fn emit(
     on_decision: Option<&Bound<'_, PyAny>>,
     d: &Decision,
 ) -> PyResult<()> {
-    let level = if d.outcome == Outcome::Accepted { DEBUG } else { INFO };
+    let level = if d.outcome == Outcome::Accepted {
+        DEBUG
+    } else {
+        INFO
+    };
     if logger.call_method1("isEnabledFor", (level,))?.is_truthy()? {
         logger.call_method1("log", (level, "%s", d.to_json_line()))?;
     }
@@ -58,7 +62,12 @@ where
 {
     /// The standard limits of `config` (sound speed, stability, temporal error, growth),
     /// the stability limit analysing `transfer`.
-    fn build(py: Python<'_>, config: &ControllerConfig, gravity: Vector<D>, transfer: TransferNd) -> PyResult<Controller<D>> {
+    fn build(
+        py: Python<'_>,
+        config: &ControllerConfig,
+        gravity: Vector<D>,
+        transfer: TransferNd,
+    ) -> PyResult<Controller<D>> {
         let mut limits = standard_limits::<D>(config, gravity);
         if transfer != TransferNd::Flip {
             for limit in limits.iter_mut() {
@@ -93,7 +102,9 @@ where
         let Some(ctrl) = self.controller.as_mut() else {
             unreachable!("built just above")
         };
-        let logger = py.import("logging")?.call_method1("getLogger", ("mpm_dt",))?;
+        let logger = py
+            .import("logging")?
+            .call_method1("getLogger", ("mpm_dt",))?;
         let mut on = |d: &Decision| {
             if pending.borrow().is_none() {
                 if let Err(e) = emit(py, &logger, on_decision.as_ref(), d) {
@@ -163,20 +174,38 @@ pub struct PyController {
 impl PyController {
     #[new]
     #[pyo3(signature = (dim, config = None, gravity = None))]
-    fn new(py: Python<'_>, dim: usize, config: Option<Bound<'_, PyDict>>, gravity: Option<Vec<f64>>) -> PyResult<Self> {
+    fn new(
+        py: Python<'_>,
+        dim: usize,
+        config: Option<Bound<'_, PyDict>>,
+        gravity: Option<Vec<f64>>,
+    ) -> PyResult<Self> {
         if !(2..=3).contains(&dim) {
-            return Err(error(py, "ConfigError", format!("dim = {dim}: mpm_dt drives 2D and 3D Python solvers (dim 2 or 3)")));
+            return Err(error(
+                py,
+                "ConfigError",
+                format!("dim = {dim}: mpm_dt drives 2D and 3D Python solvers (dim 2 or 3)"),
+            ));
         }
         let config_json = match config {
-            Some(c) => py.import("json")?.call_method1("dumps", (c,))?.extract::<String>()?,
+            Some(c) => py
+                .import("json")?
+                .call_method1("dumps", (c,))?
+                .extract::<String>()?,
             None => "{}".to_string(),
         };
         let config = ControllerConfig::from_json(&config_json)
             .map_err(|e| error(py, "ConfigError", e.to_string()))?;
-        config.validate().map_err(|e| error(py, "ConfigError", e.to_string()))?;
+        config
+            .validate()
+            .map_err(|e| error(py, "ConfigError", e.to_string()))?;
         let gravity = gravity.unwrap_or_else(|| vec![0.0; dim]);
         if gravity.len() != dim || gravity.iter().any(|g| !g.is_finite()) {
-            return Err(error(py, "ConfigError", format!("gravity must be {dim} finite numbers, got {gravity:?}")));
+            return Err(error(
+                py,
+                "ConfigError",
+                format!("gravity must be {dim} finite numbers, got {gravity:?}"),
+            ));
         }
         Ok(Self {
             dim,
@@ -193,14 +222,26 @@ impl PyController {
     /// ``dt_max``, ``t_final``, ``binding`` (accepted steps per bound that set ``dt``),
     /// ``rejected_by_cause``, ``growth_events``.
     #[pyo3(signature = (stepper, t_end, on_decision = None))]
-    fn run_until<'py>(&mut self, py: Python<'py>, stepper: Bound<'py, PyAny>, t_end: f64, on_decision: Option<Bound<'py, PyAny>>) -> PyResult<Bound<'py, PyAny>> {
+    fn run_until<'py>(
+        &mut self,
+        py: Python<'py>,
+        stepper: Bound<'py, PyAny>,
+        t_end: f64,
+        on_decision: Option<Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyAny>> {
         self.drive(py, stepper, on_decision, Ask::Run(t_end))
     }
 
     /// Advances ``stepper`` by one accepted step (retrying rejected attempts; never past
     /// ``t_end``) and returns that step's decision as a dict.
     #[pyo3(signature = (stepper, t_end = f64::INFINITY, on_decision = None))]
-    fn step<'py>(&mut self, py: Python<'py>, stepper: Bound<'py, PyAny>, t_end: f64, on_decision: Option<Bound<'py, PyAny>>) -> PyResult<Bound<'py, PyAny>> {
+    fn step<'py>(
+        &mut self,
+        py: Python<'py>,
+        stepper: Bound<'py, PyAny>,
+        t_end: f64,
+        on_decision: Option<Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyAny>> {
         self.drive(py, stepper, on_decision, Ask::Step(t_end))
     }
 
@@ -213,7 +254,8 @@ impl PyController {
     /// The configuration as given (a dict).
     #[getter]
     fn config<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        py.import("json")?.call_method1("loads", (self.config_json.as_str(),))
+        py.import("json")?
+            .call_method1("loads", (self.config_json.as_str(),))
     }
 
     /// The controller's statistics so far (the dict ``run_until`` returns, without
@@ -231,15 +273,28 @@ impl PyController {
     }
 
     fn __repr__(&self) -> String {
-        format!("mpm_dt.Controller(dim={}, config={}, gravity={:?})", self.dim, self.config_json, self.gravity)
+        format!(
+            "mpm_dt.Controller(dim={}, config={}, gravity={:?})",
+            self.dim, self.config_json, self.gravity
+        )
     }
 }
 
 impl PyController {
-    fn drive<'py>(&mut self, py: Python<'py>, stepper: Bound<'py, PyAny>, on_decision: Option<Bound<'py, PyAny>>, ask: Ask) -> PyResult<Bound<'py, PyAny>> {
+    fn drive<'py>(
+        &mut self,
+        py: Python<'py>,
+        stepper: Bound<'py, PyAny>,
+        on_decision: Option<Bound<'py, PyAny>>,
+        ask: Ask,
+    ) -> PyResult<Bound<'py, PyAny>> {
         match self.dim {
-            2 => self.d2.run(py, &self.config, &self.gravity, stepper, on_decision, ask),
-            _ => self.d3.run(py, &self.config, &self.gravity, stepper, on_decision, ask),
+            2 => self
+                .d2
+                .run(py, &self.config, &self.gravity, stepper, on_decision, ask),
+            _ => self
+                .d3
+                .run(py, &self.config, &self.gravity, stepper, on_decision, ask),
         }
     }
 }

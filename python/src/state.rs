@@ -150,33 +150,51 @@ fn positive(dict: &Bound<'_, PyDict>, key: &str, n: usize, out: &mut Vec<f64>) -
 pub fn read_grid<const D: usize>(dict: &Bound<'_, PyDict>) -> PyResult<GridNd<D>> {
     let py = dict.py();
     let cells: Vec<usize> = item(dict, "cells")?.extract().map_err(|_| {
-        state_error(py, format!("state[\"cells\"] must be {D} positive integers"))
+        state_error(
+            py,
+            format!("state[\"cells\"] must be {D} positive integers"),
+        )
     })?;
     let mut length = Vec::new();
     read_into(dict, "length", &[D], &mut length)?;
     if cells.len() != D || cells.contains(&0) {
-        return Err(state_error(py, format!("state[\"cells\"] must be {D} positive integers, got {cells:?}")));
+        return Err(state_error(
+            py,
+            format!("state[\"cells\"] must be {D} positive integers, got {cells:?}"),
+        ));
     }
     if length.iter().any(|l| !(l.is_finite() && *l > 0.0)) {
-        return Err(state_error(py, format!("state[\"length\"] must be {D} positive numbers, got {length:?}")));
+        return Err(state_error(
+            py,
+            format!("state[\"length\"] must be {D} positive numbers, got {length:?}"),
+        ));
     }
     let parse = |s: &str| match s {
         "periodic" => Ok(Boundary::Periodic),
         "fixed" => Ok(Boundary::Fixed),
-        _ => Err(state_error(py, format!("boundary {s:?}: expected \"periodic\" or \"fixed\""))),
+        _ => Err(state_error(
+            py,
+            format!("boundary {s:?}: expected \"periodic\" or \"fixed\""),
+        )),
     };
     let b = item(dict, "boundary")?;
     let boundary: Vec<Boundary> = match b.extract::<String>() {
         Ok(s) => vec![parse(&s)?; D],
         Err(_) => {
             let names: Vec<String> = b.extract().map_err(|_| {
-                state_error(py, "state[\"boundary\"] must be a string or a list of strings".into())
+                state_error(
+                    py,
+                    "state[\"boundary\"] must be a string or a list of strings".into(),
+                )
             })?;
             names.iter().map(|s| parse(s)).collect::<PyResult<_>>()?
         }
     };
     if boundary.len() != D {
-        return Err(state_error(py, format!("state[\"boundary\"] must name {D} axes")));
+        return Err(state_error(
+            py,
+            format!("state[\"boundary\"] must name {D} axes"),
+        ));
     }
     let mut grid = GridNd::new(
         std::array::from_fn(|a| boundary[a]),
@@ -199,7 +217,12 @@ fn read_scheme(dict: &Bound<'_, PyDict>) -> PyResult<(ShapeNd, TransferNd)> {
         "bspline2" => ShapeNd::BSpline2,
         "gimp" => ShapeNd::Gimp,
         "linear" => ShapeNd::Linear,
-        s => return Err(state_error(py, format!("shape {s:?}: expected \"bspline2\", \"gimp\" or \"linear\""))),
+        s => {
+            return Err(state_error(
+                py,
+                format!("shape {s:?}: expected \"bspline2\", \"gimp\" or \"linear\""),
+            ))
+        }
     };
     let transfer = match dict.get_item("transfer")? {
         None => TransferNd::Flip,
@@ -207,8 +230,18 @@ fn read_scheme(dict: &Bound<'_, PyDict>) -> PyResult<(ShapeNd, TransferNd)> {
             "flip" => TransferNd::Flip,
             // APIC's inertia D_p = h²/4 per axis is that of quadratic B-splines.
             "apic" if shape == ShapeNd::BSpline2 => TransferNd::Apic { inertia: 0.25 },
-            "apic" => return Err(state_error(py, "transfer \"apic\" is analysed for shape \"bspline2\" only".into())),
-            s => return Err(state_error(py, format!("transfer {s:?}: expected \"flip\" or \"apic\""))),
+            "apic" => {
+                return Err(state_error(
+                    py,
+                    "transfer \"apic\" is analysed for shape \"bspline2\" only".into(),
+                ))
+            }
+            s => {
+                return Err(state_error(
+                    py,
+                    format!("transfer {s:?}: expected \"flip\" or \"apic\""),
+                ))
+            }
         },
     };
     Ok((shape, transfer))
@@ -231,7 +264,11 @@ impl<const D: usize> StateNd<D> {
         (self.shape, self.transfer) = read_scheme(dict)?;
         let mass_shape = shape_of(&item(dict, "mass")?, "mass")?;
         let [n] = mass_shape[..] else {
-            return Err(state_error(py, format!("state[\"mass\"] must have shape (n,), got {mass_shape:?}")).into());
+            return Err(state_error(
+                py,
+                format!("state[\"mass\"] must have shape (n,), got {mass_shape:?}"),
+            )
+            .into());
         };
         positive(dict, "mass", n, &mut self.mass)?;
         positive(dict, "volume0", n, &mut self.volume0)?;
@@ -254,11 +291,20 @@ impl<const D: usize> StateNd<D> {
             // The GIMP particle domain: a cube of the initial volume.
             self.domain.clear();
             let d = D as f64;
-            self.domain
-                .extend(self.volume0.iter().map(|v| Vector::<D>::repeat(v.powf(1.0 / d))));
+            self.domain.extend(
+                self.volume0
+                    .iter()
+                    .map(|v| Vector::<D>::repeat(v.powf(1.0 / d))),
+            );
         }
-        compute_weights(&self.grid, self.shape, &self.x, &self.domain, &mut self.weights)
-            .map_err(|p| Fault::OutOfGrid(p, self.x[p][0]))?;
+        compute_weights(
+            &self.grid,
+            self.shape,
+            &self.x,
+            &self.domain,
+            &mut self.weights,
+        )
+        .map_err(|p| Fault::OutOfGrid(p, self.x[p][0]))?;
         let min_mass = self.mass.iter().copied().fold(f64::INFINITY, f64::min);
         let particles = ParticleFieldsNd {
             mass: &self.mass,
@@ -294,7 +340,12 @@ impl<const D: usize> StateNd<D> {
             let e = scalar(dict, "youngs_modulus")?;
             let nu = scalar(dict, "poisson_ratio")?;
             if !(e.is_finite() && e >= 0.0 && nu > -1.0 && nu < 0.5) {
-                return Err(state_error(py, format!("youngs_modulus = {e}, poisson_ratio = {nu}: need E >= 0 and -1 < nu < 0.5")));
+                return Err(state_error(
+                    py,
+                    format!(
+                        "youngs_modulus = {e}, poisson_ratio = {nu}: need E >= 0 and -1 < nu < 0.5"
+                    ),
+                ));
             }
             let (l, m) = lame(e, nu);
             self.lame_lambda.resize(n, l);
@@ -338,5 +389,8 @@ impl<const D: usize> StateNd<D> {
 
 /// Lamé parameters `(λ, μ)` of Young's modulus `e` and Poisson's ratio `nu`.
 pub fn lame(e: f64, nu: f64) -> (f64, f64) {
-    (e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu)), e / (2.0 * (1.0 + nu)))
+    (
+        e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu)),
+        e / (2.0 * (1.0 + nu)),
+    )
 }

@@ -46,7 +46,10 @@ fn py_state<'py>(obj: &Bound<'py, PyAny>, trial: bool) -> PyResult<Bound<'py, Py
     s.downcast_into::<PyDict>().map_err(|e| {
         crate::errors::state_type_error(
             obj.py(),
-            format!("state({trial}) must return a dict, got {}", e.into_inner().get_type()),
+            format!(
+                "state({trial}) must return a dict, got {}",
+                e.into_inner().get_type()
+            ),
         )
     })
 }
@@ -63,7 +66,10 @@ impl<'py, const D: usize> PyStepper<'py, D> {
         let py = obj.py();
         let t = py_time(&obj)?;
         if !t.is_finite() {
-            return Err(crate::errors::state_error(py, format!("time() = {t} is not finite")));
+            return Err(crate::errors::state_error(
+                py,
+                format!("time() = {t} is not finite"),
+            ));
         }
         let dict = py_state(&obj, false)?;
         let mut committed = Box::<StateNd<D>>::default();
@@ -154,7 +160,7 @@ where
                 })
             }
             Err(e) => return Err(self.fail(e)),
-            Ok(r) if r.is(&pyo3::types::PyBool::new(py, false)) => {
+            Ok(r) if r.is(pyo3::types::PyBool::new(py, false)) => {
                 return Err(StepError::Failed {
                     message: "try_step returned False".into(),
                     t,

@@ -123,7 +123,7 @@ def test_nan_in_every_trial_is_rejected_then_gives_up(bar: Any) -> None:
     ("shape", "cubic", "shape \"cubic\""),
     ("boundary", "open", "boundary \"open\""),
     ("volume0", -np.ones(128), r"volume0.*not a positive number"),
-    ("transfer", "apic", "bspline2 only"),
+    ("transfer", "apic", "\"bspline2\" only"),
 ])
 def test_invalid_fields_are_state_errors(bar: Any, key: str, value: Any, match: str) -> None:
     def edit(s: dict[str, Any]) -> None:
@@ -174,6 +174,11 @@ def test_invalid_controllers_are_config_errors(kwargs: dict[str, Any], match: st
         mpm_dt.Controller(**kwargs)
 
 
-def test_max_stable_modulus_needs_a_positive_step(bar: Any) -> None:
+def test_max_stable_modulus_needs_a_positive_step_and_a_known_method(bar: Any) -> None:
     with pytest.raises(mpm_dt.StateError, match="dt"):
         mpm_dt.max_stable_modulus(bar.state(False), 0.0)
+    with pytest.raises(mpm_dt.StateError, match="method"):
+        mpm_dt.max_stable_modulus(bar.state(False), 0.01, method="guess")
+    # 128 particles x 5 unknowns is above the full map's limit.
+    with pytest.raises(mpm_dt.StateError, match="at most 400 unknowns"):
+        mpm_dt.max_stable_modulus(bar.state(False), 0.01, method="full_map")
