@@ -31,12 +31,13 @@ from ._errors import (
     StepTooSmall,
     TooManyRejections,
 )
-from ._native import Controller, critical_dt, max_stable_modulus
+from ._native import Controller, critical_dt, max_stable_modulus, read_state
 
 __all__ = [
     "Controller",
     "critical_dt",
     "max_stable_modulus",
+    "read_state",
     "StepFailed",
     "ControllerError",
     "ConfigError",

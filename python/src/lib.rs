@@ -117,7 +117,10 @@ where
 /// or the scalars ``"youngs_modulus"`` and ``"poisson_ratio"``, the grid as ``"cells"``
 /// (d,), ``"length"`` (d,), ``"boundary"`` (``"periodic"``, ``"fixed"`` or one per
 /// axis), optional ``"origin"`` (d,), ``"shape"`` (``"bspline2"``, ``"gimp"``,
-/// ``"linear"``), optional ``"transfer"`` (``"flip"``, ``"apic"``) and optional
+/// ``"linear"``), optional ``"transfer"`` (``"flip"``, ``"apic"``: the APIC limit
+/// ``sqrt(2 (1 + p) / lambda_max)`` of the controller, ``bspline2`` only), optional
+/// ``"gradient"`` (``"exact"``, or ``"mls"``: MLS-MPM's ``(4/h^2) S_ip (x_i - x_p)``,
+/// ``bspline2`` only) and optional
 /// ``"domain"`` (n, d) GIMP particle lengths (default: the cube root of ``volume0``).
 #[pyfunction]
 #[pyo3(signature = (state, full_map = false))]
@@ -207,11 +210,39 @@ fn max_stable_modulus(state: Bound<'_, PyDict>, dt: f64, method: &str) -> PyResu
     }
 }
 
+thread_local! {
+    /// `read_state`'s storage, reused from call to call as the controller reuses its own.
+    static READ2: std::cell::RefCell<StateNd<2>> = std::cell::RefCell::new(StateNd::default());
+    static READ3: std::cell::RefCell<StateNd<3>> = std::cell::RefCell::new(StateNd::default());
+}
+
+fn read_counts<const D: usize>(
+    state: &Bound<'_, PyDict>,
+    cell: &std::cell::RefCell<StateNd<D>>,
+) -> PyResult<(usize, usize)> {
+    let mut s = cell.borrow_mut();
+    s.read(state, &Vector::<D>::zeros(), 0.0, 0)
+        .map_err(|f| f.into_pyerr(state.py(), "state"))?;
+    Ok((s.x.len(), s.nodal.active.iter().filter(|&&a| a).count()))
+}
+
+/// Reads a state dict as the controller reads every trial (the arrays into Rust memory,
+/// the weights, the nodal mass, velocity and acceleration) and returns ``(particles,
+/// active nodes)``: the package's part of the hand-over, for measuring it.
+#[pyfunction]
+fn read_state(state: Bound<'_, PyDict>) -> PyResult<(usize, usize)> {
+    match dimension(&state)? {
+        2 => READ2.with(|c| read_counts::<2>(&state, c)),
+        _ => READ3.with(|c| read_counts::<3>(&state, c)),
+    }
+}
+
 /// The native part of the `mpm_dt` package.
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<controller::PyController>()?;
     m.add_function(wrap_pyfunction!(critical_dt, m)?)?;
     m.add_function(wrap_pyfunction!(max_stable_modulus, m)?)?;
+    m.add_function(wrap_pyfunction!(read_state, m)?)?;
     Ok(())
 }

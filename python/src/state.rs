@@ -63,6 +63,9 @@ pub struct StateNd<const D: usize> {
     pub grid: GridNd<D>,
     pub shape: ShapeNd,
     pub transfer: TransferNd,
+    /// MLS-MPM's effective gradients `∇S_ip = D_p⁻¹ S_ip (X_i − x_p)` in place of the
+    /// B-spline's own (`"gradient": "mls"`).
+    mls: bool,
     pub x: Vec<Vector<D>>,
     pub v: Vec<Vector<D>>,
     pub sigma: Vec<Tensor<D>>,
@@ -85,6 +88,7 @@ impl<const D: usize> Default for StateNd<D> {
             grid: GridNd::new([Boundary::Periodic; D], [1; D], [1.0; D]),
             shape: ShapeNd::Linear,
             transfer: TransferNd::Flip,
+            mls: false,
             x: Vec::new(),
             v: Vec::new(),
             sigma: Vec::new(),
@@ -209,8 +213,8 @@ pub fn read_grid<const D: usize>(dict: &Bound<'_, PyDict>) -> PyResult<GridNd<D>
     Ok(grid)
 }
 
-/// `"shape"` and `"transfer"` of a state dict.
-fn read_scheme(dict: &Bound<'_, PyDict>) -> PyResult<(ShapeNd, TransferNd)> {
+/// `"shape"`, `"transfer"` and `"gradient"` of a state dict.
+fn read_scheme(dict: &Bound<'_, PyDict>) -> PyResult<(ShapeNd, TransferNd, bool)> {
     let py = dict.py();
     let shape: String = item(dict, "shape")?.extract()?;
     let shape = match shape.as_str() {
@@ -244,7 +248,57 @@ fn read_scheme(dict: &Bound<'_, PyDict>) -> PyResult<(ShapeNd, TransferNd)> {
             }
         },
     };
-    Ok((shape, transfer))
+    let mls = match dict.get_item("gradient")? {
+        None => false,
+        Some(g) => match g.extract::<String>()?.as_str() {
+            "exact" => false,
+            "mls" if shape == ShapeNd::BSpline2 => true,
+            "mls" => {
+                return Err(state_error(
+                    py,
+                    "gradient \"mls\" needs shape \"bspline2\"".into(),
+                ))
+            }
+            s => {
+                return Err(state_error(
+                    py,
+                    format!("gradient {s:?}: expected \"exact\" or \"mls\""),
+                ))
+            }
+        },
+    };
+    Ok((shape, transfer, mls))
+}
+
+/// Replaces the gradients by MLS-MPM's effective ones, `∇S_ip = (4/h_a²) S_ip (X_i − x_p)`
+/// per axis (quadratic B-splines: `D_p = h_a²/4`). `X_i` is the unwrapped lattice node
+/// `first_a + k_a` of the stencil, walked in the order of `compute_weights` (axis 0
+/// fastest), so that periodic images need no care.
+fn mls_gradients<const D: usize>(grid: &GridNd<D>, x: &[Vector<D>], weights: &mut WeightsNd<D>) {
+    let n = x.len();
+    let width = weights.width();
+    let inv_h: [f64; D] = std::array::from_fn(|a| 1.0 / grid.h[a]);
+    let (_, s, grad) = weights.storage_mut(n);
+    for p in 0..n {
+        // Per axis and stencil node: (4/h²)(X_i − x_p) = (4/h)(first + k − x/h).
+        let rel: [[f64; 3]; D] = std::array::from_fn(|a| {
+            let q = (x[p][a] - grid.origin[a]) * inv_h[a];
+            let first = (q - 0.5).floor() - q;
+            std::array::from_fn(|k| 4.0 * inv_h[a] * (first + k as f64))
+        });
+        let mut ks = [0usize; D];
+        for m in 0..width {
+            let k = p * width + m;
+            grad[k] = Vector::<D>::from_fn(|a, _| rel[a][ks[a]] * s[k]);
+            for kk in ks.iter_mut() {
+                *kk += 1;
+                if *kk < 3 {
+                    break;
+                }
+                *kk = 0;
+            }
+        }
+    }
 }
 
 impl<const D: usize> StateNd<D> {
@@ -261,7 +315,7 @@ impl<const D: usize> StateNd<D> {
         self.t = t;
         self.step = step;
         self.grid = read_grid(dict)?;
-        (self.shape, self.transfer) = read_scheme(dict)?;
+        (self.shape, self.transfer, self.mls) = read_scheme(dict)?;
         let mass_shape = shape_of(&item(dict, "mass")?, "mass")?;
         let [n] = mass_shape[..] else {
             return Err(state_error(
@@ -287,7 +341,7 @@ impl<const D: usize> StateNd<D> {
         }
         if dict.contains("domain")? {
             vectors(dict, "domain", n, &mut self.domain)?;
-        } else {
+        } else if self.shape == ShapeNd::Gimp {
             // The GIMP particle domain: a cube of the initial volume.
             self.domain.clear();
             let d = D as f64;
@@ -296,6 +350,9 @@ impl<const D: usize> StateNd<D> {
                     .iter()
                     .map(|v| Vector::<D>::repeat(v.powf(1.0 / d))),
             );
+        } else {
+            // Read by GIMP only.
+            self.domain.resize(n, Vector::<D>::zeros());
         }
         compute_weights(
             &self.grid,
@@ -305,6 +362,9 @@ impl<const D: usize> StateNd<D> {
             &mut self.weights,
         )
         .map_err(|p| Fault::OutOfGrid(p, self.x[p][0]))?;
+        if self.mls {
+            mls_gradients(&self.grid, &self.x, &mut self.weights);
+        }
         let min_mass = self.mass.iter().copied().fold(f64::INFINITY, f64::min);
         let particles = ParticleFieldsNd {
             mass: &self.mass,

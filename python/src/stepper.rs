@@ -5,7 +5,8 @@
 //! change under them.
 //!
 //! Failures:
-//! * `try_step` raising `mpm_dt.StepFailed` or returning `False`, or a trial state that is
+//! * `try_step` (or `state(True)`) raising `mpm_dt.StepFailed`, `try_step` returning
+//!   `False`, or a trial state that is
 //!   not finite, inverted (`det F ≤ 0`) or outside the grid: a `StepError` the controller
 //!   retries with a smaller step;
 //! * any other Python exception (in any method, in `on_decision`), or an invalid trial
@@ -170,7 +171,19 @@ where
             }
             Ok(_) => {}
         }
-        let dict = py_state(&self.obj, true).map_err(|e| self.fail(e))?;
+        let dict = match py_state(&self.obj, true) {
+            Ok(d) => d,
+            // The solver's own check of the trial, in `state(True)`: retried too.
+            Err(e) if is_step_failed(py, &e) => {
+                return Err(StepError::Failed {
+                    message: format!("StepFailed: {}", e.value(py)),
+                    t,
+                    step,
+                    dt,
+                })
+            }
+            Err(e) => return Err(self.fail(e)),
+        };
         let mut s = self.spare.take().unwrap_or_default();
         match s.read(&dict, &self.gravity, t + dt, step + 1) {
             Ok(()) => {
