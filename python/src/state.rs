@@ -279,10 +279,10 @@ fn mls_gradients<const D: usize>(grid: &GridNd<D>, x: &[Vector<D>], weights: &mu
     let width = weights.width();
     let inv_h: [f64; D] = std::array::from_fn(|a| 1.0 / grid.h[a]);
     let (_, s, grad) = weights.storage_mut(n);
-    for p in 0..n {
+    for (p, xp) in x.iter().enumerate() {
         // Per axis and stencil node: (4/h²)(X_i − x_p) = (4/h)(first + k − x/h).
         let rel: [[f64; 3]; D] = std::array::from_fn(|a| {
-            let q = (x[p][a] - grid.origin[a]) * inv_h[a];
+            let q = (xp[a] - grid.origin[a]) * inv_h[a];
             let first = (q - 0.5).floor() - q;
             std::array::from_fn(|k| 4.0 * inv_h[a] * (first + k as f64))
         });
