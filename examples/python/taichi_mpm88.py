@@ -64,6 +64,7 @@ class Mpm88:
         self.stress = ti.Matrix.field(2, 2, float, n)
         self.F_out = ti.Matrix.field(2, 2, float, n)
         self.sums = ti.field(ti.f64, 5)
+        self.escaped = ti.field(int, ())
         rng = np.random.default_rng(seed)
         s = self.states[0]
         s.x.from_numpy((rng.random((n, 2)) * 0.4 + 0.2).astype(np.float32))
@@ -91,6 +92,12 @@ class Mpm88:
             tau = 2.0 * self.mu * (F - R) @ F.transpose() + ti.Matrix.identity(float, 2) * (self.lam * (J - 1.0) * J)
         return tau
 
+    @ti.func
+    def inside(self, base):
+        """Whether the 3 x 3 stencil from `base` is on the grid (not so only after a
+        blow-up, which mpm88 does not guard against: its walls keep sane runs inside)."""
+        return 0 <= base.x <= self.n_grid - 3 and 0 <= base.y <= self.n_grid - 3
+
     @ti.kernel
     def substep(self, a: ti.template(), b: ti.template(), dt: float):
         """mpm88's substep from state a into state b (particle to grid, grid, grid to particle)."""
@@ -100,6 +107,8 @@ class Mpm88:
         for p in a.x:
             Xp = a.x[p] / self.dx
             base = int(Xp - 0.5)
+            if not self.inside(base):
+                continue
             fx = Xp - base
             w = [0.5 * (1.5 - fx) ** 2, 0.75 - (fx - 1) ** 2, 0.5 * (fx - 0.5) ** 2]
             stress = -dt * 4 * self.p_vol * self.kirchhoff(a.F[p], a.J[p]) / self.dx**2
@@ -125,6 +134,11 @@ class Mpm88:
         for p in a.x:
             Xp = a.x[p] / self.dx
             base = int(Xp - 0.5)
+            if not self.inside(base):
+                # A blown-up run (fixed steps): the particle stays out and is counted.
+                b.x[p] = a.x[p]
+                self.escaped[None] += 1
+                continue
             fx = Xp - base
             w = [0.5 * (1.5 - fx) ** 2, 0.75 - (fx - 1.0) ** 2, 0.5 * (fx - 0.5) ** 2]
             new_v = ti.Vector.zero(float, 2)
@@ -179,6 +193,8 @@ class Mpm88:
 
     def blown_up(self, s: Optional[State] = None) -> Optional[str]:
         kin, el, _, min_j, out = self.energies(s)
+        if self.escaped[None] > 0:
+            return f"particles left the grid ({self.escaped[None]} times)"
         if not np.isfinite(kin + el + min_j):
             return "non-finite values"
         if out > 0 or min_j <= 0:
@@ -227,6 +243,7 @@ class Mpm88:
         first.x.from_numpy(x)
         first.v.from_numpy(v)
         self.reset_rest(first)
+        self.escaped[None] = 0
         self.t = self.t_trial = self.solver_s = self.export_s = 0.0
 
 

@@ -160,6 +160,14 @@ where
 /// ``binding``, ``bound58``, ``lambda_max``, ``dsm``, ``outcome``, ``cause``,
 /// ``rejected_by``, ``message``) and, as a JSON line, to the ``logging`` logger
 /// ``"mpm_dt"`` (DEBUG for accepted attempts, INFO for rejected ones).
+///
+/// The limits are built at the first run, from the first state (its ``"transfer"``), and
+/// keep their state (the tracked ``lambda_max``, the filter's history) from call to call:
+/// one controller per run. Example::
+///
+///     ctrl = mpm_dt.Controller(dim=2, config={}, gravity=(0.0, -9.8))
+///     summary = ctrl.run_until(solver, 0.5, on_decision=print)
+///     print(summary["steps_accepted"], summary["dt_mean"], summary["binding"])
 #[pyclass(name = "Controller", module = "mpm_dt", unsendable)]
 pub struct PyController {
     dim: usize,
@@ -232,9 +240,12 @@ impl PyController {
         self.drive(py, stepper, on_decision, Ask::Run(t_end))
     }
 
-    /// Advances ``stepper`` by one accepted step (retrying rejected attempts; never past
-    /// ``t_end``) and returns that step's decision as a dict.
+    /// Advances ``stepper`` by one accepted step (retrying rejected attempts, whose
+    /// decisions go to ``on_decision``; never past ``t_end``) and returns that step's
+    /// decision as a dict. Each call reads the stepper's committed state once more
+    /// (``state(False)``), which ``run_until`` does only at its start.
     #[pyo3(signature = (stepper, t_end = f64::INFINITY, on_decision = None))]
+    #[pyo3(text_signature = "(self, stepper, t_end=math.inf, on_decision=None)")]
     fn step<'py>(
         &mut self,
         py: Python<'py>,
