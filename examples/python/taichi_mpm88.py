@@ -1,3 +1,5 @@
+# mypy: disable-error-code="valid-type,no-untyped-def,untyped-decorator"
+# (taichi kernels: `ti.template()` annotations and untyped decorators; the mpm_dt calls are checked.)
 """taichi's mpm88 scene under mpm_dt's controller, against mpm88's fixed step.
 
 The scene, written here from its description: 8192 particles at seeded random positions
@@ -8,7 +10,8 @@ density 1: mpm88's weakly compressible fluid (Kirchhoff stress E (J - 1) I), or 
 fixed step 2e-4 s.
 
     python examples/python/taichi_mpm88.py [--jelly] [--t-end 0.5] [--repeat 3]
-        [--find-failure] [--arch cpu|gpu] [--threads N] [--handover N_PARTICLES]
+        [--find-failure] [--arch cpu|gpu] [--threads N] [--handover N_PARTICLES] [--fp64]
+        [--config JSON]
 
 * every run times mpm88's fixed step and the controlled run ``--repeat`` times,
   interleaved (the controller first in every other round), and prints the medians;
@@ -21,13 +24,14 @@ fixed step 2e-4 s.
 
 
 import argparse
+import json
 import statistics
 import time
 from typing import Any, Optional
 
 import mpm_dt
 import numpy as np
-import taichi as ti
+import taichi as ti  # type: ignore[import-untyped]
 
 MPM88_DT = 2e-4
 GRAVITY = 9.8
@@ -67,8 +71,9 @@ class Mpm88:
         self.escaped = ti.field(int, ())
         rng = np.random.default_rng(seed)
         s = self.states[0]
-        s.x.from_numpy((rng.random((n, 2)) * 0.4 + 0.2).astype(np.float32))
-        s.v.from_numpy(np.tile(np.array([0.0, -1.0], np.float32), (n, 1)))
+        real = s.x.to_numpy().dtype  # float32, or float64 with --fp64
+        s.x.from_numpy((rng.random((n, 2)) * 0.4 + 0.2).astype(real))
+        s.v.from_numpy(np.tile(np.array([0.0, -1.0], real), (n, 1)))
         self.reset_rest(s)
         self.t = self.t_trial = 0.0
         self.solver_s = self.export_s = 0.0
@@ -278,11 +283,17 @@ def run_fixed(sim: Mpm88, dt: float, t_end: float, check_every: int = 0) -> tupl
     return steps, blown or sim.blown_up(), wall
 
 
-def run_controlled(sim: Mpm88, t_end: float) -> dict[str, Any]:
-    """The scene under the controller with the standard limits and no tuning."""
+def run_controlled(sim: Mpm88, t_end: float, config: dict[str, Any]) -> dict[str, Any]:
+    """The scene under the controller with the standard limits (no tuning unless `config`
+    says so); a controller error is reported in the summary's "error"."""
     sim.reset()
     start = time.perf_counter()
-    summary = mpm_dt.Controller(dim=2, config={}, gravity=(0.0, -GRAVITY)).run_until(sim, t_end)
+    ctrl = mpm_dt.Controller(dim=2, config=config, gravity=(0.0, -GRAVITY))
+    try:
+        summary = ctrl.run_until(sim, t_end)
+        summary["error"] = None
+    except mpm_dt.ControllerError as e:
+        summary = dict(ctrl.stats, t_final=sim.time(), error=f"{type(e).__name__}: {e}")
     summary["wall_s"] = time.perf_counter() - start
     summary["solver_s"], summary["export_s"] = sim.solver_s, sim.export_s
     summary["blew_up"] = sim.blown_up()
@@ -329,9 +340,11 @@ def main() -> None:
     p.add_argument("--arch", choices=["cpu", "gpu"], default="cpu")
     p.add_argument("--threads", type=int, default=1)
     p.add_argument("--handover", type=int, default=0, metavar="N_PARTICLES")
+    p.add_argument("--config", default="{}", help="the controller config as JSON (default: {})")
+    p.add_argument("--fp64", action="store_true", help="taichi in float64 (mpm88 runs float32)")
     args = p.parse_args()
     ti.init(arch=ti.cpu if args.arch == "cpu" else ti.gpu, cpu_max_num_threads=args.threads,
-            default_fp=ti.f32, log_level=ti.WARN)
+            default_fp=ti.f64 if args.fp64 else ti.f32, log_level=ti.WARN)
     scene = "jelly" if args.jelly else "fluid"
     if args.handover:
         print(f"hand-over at {args.handover} particles ({scene}, {args.arch}, {args.threads} thread(s)):")
@@ -350,7 +363,7 @@ def main() -> None:
             if which == "f":
                 fixed.append(run_fixed(sim, MPM88_DT, args.t_end))
             else:
-                controlled.append(run_controlled(sim, args.t_end))
+                controlled.append(run_controlled(sim, args.t_end, json.loads(args.config)))
     f_wall = statistics.median(w for _, _, w in fixed)
     c_wall = statistics.median(c["wall_s"] for c in controlled)
     c = controlled[0]
@@ -361,7 +374,7 @@ def main() -> None:
     print(f"controller: {c['steps_accepted']} steps ({c['steps_rejected']} rejected), blow-up: "
           f"{c['blew_up'] or 'none'}; dt mean {c['dt_mean']:.4e} s"
           + (f" = {c['dt_mean'] / failure:.3f} of the failure step" if failure else "")
-          + f"; bound by {c['binding']}")
+          + f"; bound by {c['binding']}" + (f"\n  run ended at t = {c['t_final']:.4f}: {c['error']}" if c["error"] else ""))
     runs = ", ".join(f"{x['wall_s']:.3f}" for x in controlled)
     print(f"  wall median {c_wall:.3f} s ({runs}): "
           f"{c_wall / f_wall:.2f}x mpm88's; per attempt: substep {c['solver_s'] / steps * 1e3:.3f} ms, "
