@@ -314,6 +314,12 @@ impl<const D: usize> StateNd<D> {
         let py = dict.py();
         self.t = t;
         self.step = step;
+        let x_shape = shape_of(&item(dict, "x")?, "x")?;
+        if x_shape.len() != 2 || x_shape[1] != D {
+            let msg =
+                format!("state[\"x\"] has shape {x_shape:?}: expected (n, {D}) for dimension {D}");
+            return Err(state_error(py, msg).into());
+        }
         self.grid = read_grid(dict)?;
         (self.shape, self.transfer, self.mls) = read_scheme(dict)?;
         let mass_shape = shape_of(&item(dict, "mass")?, "mass")?;
