@@ -65,8 +65,9 @@ class Mpm88:
         self.states = [State(n), State(n)]
         self.grid_v = ti.Vector.field(2, float, (n_grid, n_grid))
         self.grid_m = ti.field(float, (n_grid, n_grid))
-        self.stress = ti.Matrix.field(2, 2, float, n)
-        self.F_out = ti.Matrix.field(2, 2, float, n)
+        # What the view reads, packed into one array (one `to_numpy` per state): x, v, F
+        # and the Cauchy stress, 12 numbers per particle.
+        self.packed = ti.field(float, (n, 12))
         self.sums = ti.field(ti.f64, 5)
         self.escaped = ti.field(int, ())
         rng = np.random.default_rng(seed)
@@ -167,10 +168,15 @@ class Mpm88:
 
     @ti.kernel
     def export(self, s: ti.template()):
-        """The Cauchy stress tau / J and the F the view reads (sqrt(J) I for the fluid)."""
+        """x, v, F (sqrt(J) I for the fluid) and the Cauchy stress tau / J, packed."""
         for p in s.x:
-            self.stress[p] = self.kirchhoff(s.F[p], s.J[p]) / s.J[p]
-            self.F_out[p] = s.F[p]
+            sigma = self.kirchhoff(s.F[p], s.J[p]) / s.J[p]
+            for a in ti.static(range(2)):
+                self.packed[p, a] = s.x[p][a]
+                self.packed[p, 2 + a] = s.v[p][a]
+                for b in ti.static(range(2)):
+                    self.packed[p, 4 + 2 * a + b] = s.F[p][a, b]
+                    self.packed[p, 8 + 2 * a + b] = sigma[a, b]
 
     @ti.kernel
     def reduce(self, s: ti.template()):
@@ -226,12 +232,12 @@ class Mpm88:
 
     def state(self, trial: bool) -> dict[str, Any]:
         start = time.perf_counter()
-        s = self.states[1 if trial else 0]
-        self.export(s)
-        x = s.x.to_numpy()
+        self.export(self.states[1 if trial else 0])
+        a = self.packed.to_numpy()
+        x = a[:, 0:2]
         if trial and not (self.dx <= x.min() and x.max() <= 1 - self.dx):
             raise mpm_dt.StepFailed("a particle crossed a wall")
-        out = dict(x=x, v=s.v.to_numpy(), F=self.F_out.to_numpy(), stress=self.stress.to_numpy(),
+        out = dict(x=x, v=a[:, 2:4], F=a[:, 4:8].reshape(-1, 2, 2), stress=a[:, 8:12].reshape(-1, 2, 2),
                    mass=self.mass, volume0=self.volume0, lame=self.lame, cells=(self.n_grid,) * 2,
                    length=(1.0, 1.0), boundary="fixed", shape="bspline2", transfer="apic",
                    gradient="mls")

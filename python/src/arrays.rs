@@ -2,10 +2,10 @@
 //!
 //! A field is read in one pass into the package's own storage (the cache the library's
 //! view borrows): a float64 C-contiguous array is read in place, with no intermediate
-//! copy; a float32 array, or a float64 array that is not C-contiguous, is first converted
-//! into a temporary float64 buffer (one more pass and one allocation of the field's size);
-//! a list or tuple goes through `numpy.asarray(obj, dtype=float64)`. Any other dtype is a
-//! `StateError` (a `TypeError`): integers and complex numbers are not silently converted.
+//! copy; a float32 array, a float64 array that is not C-contiguous, a list or a tuple is
+//! first converted by `numpy.ascontiguousarray(obj, dtype=float64)` (one more pass, in C,
+//! and one temporary array of the field's size). Any other dtype is a `StateTypeError`
+//! (a `TypeError`): integers and complex numbers are not silently converted.
 
 use crate::errors::{state_error, state_type_error};
 use numpy::{PyArrayDyn, PyArrayMethods, PyUntypedArray, PyUntypedArrayMethods};
@@ -53,23 +53,15 @@ pub fn with_values<R>(
     };
     if let Ok(a) = obj.downcast::<PyArrayDyn<f64>>() {
         check(a.shape())?;
-        let ro = a.readonly();
         // `as_slice` also accepts Fortran order (memory order ≠ C order): C only here.
         if a.is_c_contiguous() {
-            if let Ok(s) = ro.as_slice() {
+            if let Ok(s) = a.readonly().as_slice() {
                 return Ok(f(s));
             }
         }
-        let v: Vec<f64> = ro.as_array().iter().copied().collect();
-        return Ok(f(&v));
-    }
-    if let Ok(a) = obj.downcast::<PyArrayDyn<f32>>() {
+    } else if let Ok(a) = obj.downcast::<PyArrayDyn<f32>>() {
         check(a.shape())?;
-        let ro = a.readonly();
-        let v: Vec<f64> = ro.as_array().iter().map(|&x| f64::from(x)).collect();
-        return Ok(f(&v));
-    }
-    if let Ok(a) = obj.downcast::<PyUntypedArray>() {
+    } else if let Ok(a) = obj.downcast::<PyUntypedArray>() {
         return Err(state_type_error(
             py,
             format!(
@@ -79,10 +71,11 @@ pub fn with_values<R>(
             ),
         ));
     }
-    // A list, a tuple or a number: through numpy.asarray (float64).
+    // float32, a strided float64 array, a list, a tuple or a number: numpy converts it
+    // into a C-contiguous float64 array (one pass in C, one allocation of its size).
     let np = py.import("numpy")?;
     let arr = np
-        .call_method1("asarray", (obj, np.getattr("float64")?))
+        .call_method1("ascontiguousarray", (obj, np.getattr("float64")?))
         .map_err(|e| {
             state_type_error(
                 py,
@@ -92,8 +85,10 @@ pub fn with_values<R>(
     let a = arr.downcast::<PyArrayDyn<f64>>()?;
     check(a.shape())?;
     let ro = a.readonly();
-    let v: Vec<f64> = ro.as_array().iter().copied().collect();
-    Ok(f(&v))
+    let s = ro
+        .as_slice()
+        .map_err(|e| state_error(py, format!("state[{name:?}]: {e}")))?;
+    Ok(f(s))
 }
 
 /// The shape of an array-like field (numpy arrays without conversion).
