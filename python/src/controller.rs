@@ -151,7 +151,8 @@ where
 /// state at ``time() + dt`` beside the committed one; raise ``mpm_dt.StepFailed`` or
 /// return ``False`` for a failure that a smaller step may cure), ``accept()`` (the trial
 /// becomes the committed state; ``time()`` must then have advanced by ``dt``),
-/// ``reject()`` (discard the trial) and ``state(trial: bool) -> dict`` (see
+/// ``reject()`` (discard the trial; also called after a failed ``try_step``, when no
+/// trial is pending) and ``state(trial: bool) -> dict`` (see
 /// ``mpm_dt.critical_dt`` for the keys). Any other exception raised by the stepper or by
 /// ``on_decision`` ends the run and propagates unchanged.
 ///
