@@ -154,6 +154,20 @@ pub enum StepError {
         /// The trial's step.
         dt: f64,
     },
+    /// A solver-specific failure that a smaller step may cure (a Newton iteration that
+    /// did not converge, a solver's own blow-up check): the controller rejects the trial
+    /// and retries with a smaller step, as for [`StepError::NonFinite`].
+    #[error("{message} (trial from t = {} (step {step}) with dt = {})", Num(*t), Num(*dt))]
+    Failed {
+        /// The solver's message.
+        message: String,
+        /// Time of the committed state the trial started from.
+        t: f64,
+        /// Number of accepted steps before the trial.
+        step: u64,
+        /// The trial's step.
+        dt: f64,
+    },
     /// `accept` was called with no trial pending.
     #[error("accept() called with no trial step pending")]
     NoTrial,

@@ -17,11 +17,14 @@ enum Fault {
     NonFinite,
     /// Every trial fails with a solver-specific error (a smaller step cannot help).
     Other,
+    /// The first trial fails with a retryable solver-specific error, the others succeed.
+    FailsOnce,
 }
 
 struct Faulty {
     inner: ReferenceStepper,
     fault: Fault,
+    failed: bool,
 }
 
 impl Stepper for Faulty {
@@ -42,9 +45,22 @@ impl Stepper for Faulty {
                 dt,
             }),
             Fault::Other => Err(StepError::Other("linear solver diverged".into())),
+            Fault::FailsOnce if !self.failed => {
+                self.failed = true;
+                Err(StepError::Failed {
+                    message: "Newton did not converge".into(),
+                    t: self.inner.time(),
+                    step: self.inner.step_count(),
+                    dt,
+                })
+            }
+            Fault::FailsOnce => self.inner.try_step(dt),
         }
     }
     fn accept(&mut self) -> Result<(), StepError> {
+        if self.fault == Fault::FailsOnce {
+            return self.inner.accept();
+        }
         // KeepsTime: drop the trial and report success.
         self.inner.reject();
         Ok(())
@@ -65,6 +81,7 @@ fn faulty(fault: Fault) -> Faulty {
     Faulty {
         inner: scenario.build().unwrap(),
         fault,
+        failed: false,
     }
 }
 
@@ -123,6 +140,24 @@ fn every_attempt_of_a_failed_step_reaches_the_callback() {
     let msg = err.to_string();
     assert!(msg.contains("non_finite"), "{msg}");
     assert!(!msg.contains("Some("), "{msg}");
+}
+
+#[test]
+fn a_retryable_solver_failure_is_retried_with_a_smaller_step() {
+    let mut s = faulty(Fault::FailsOnce);
+    let mut c = Controller::new(ControllerConfig::default(), sound()).unwrap();
+    let mut seen: Vec<Decision> = Vec::new();
+    c.run_until(&mut s, 0.25, &mut |d| seen.push(d.clone()))
+        .unwrap();
+    assert!((s.time() - 0.25).abs() < 1e-12);
+    let first = &seen[0];
+    assert_eq!(first.outcome, Outcome::Rejected);
+    assert_eq!(first.cause, Some(RejectCause::NonFinite));
+    assert_eq!(first.rejected_by.as_deref(), Some("stepper"));
+    assert!(first.message.as_deref().unwrap_or("").contains("Newton"));
+    assert_eq!(seen[1].outcome, Outcome::Accepted);
+    assert!(seen[1].dt < first.dt);
+    assert_eq!(c.stats().rejected, 1);
 }
 
 #[test]

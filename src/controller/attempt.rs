@@ -210,7 +210,8 @@ where
                 Err(
                     e @ (StepError::NonFinite { .. }
                     | StepError::OutOfDomain { .. }
-                    | StepError::Inverted { .. }),
+                    | StepError::Inverted { .. }
+                    | StepError::Failed { .. }),
                 ) => {
                     cause = Some(RejectCause::NonFinite);
                     rejected_by = Some("stepper".to_string());

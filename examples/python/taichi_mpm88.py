@@ -1,0 +1,392 @@
+# mypy: disable-error-code="valid-type,no-untyped-def,untyped-decorator"
+# (taichi kernels: `ti.template()` annotations and untyped decorators; the mpm_dt calls are checked.)
+"""taichi's mpm88 scene under mpm_dt's controller, against mpm88's fixed step.
+
+The scene, written here from its description: 8192 particles at seeded random positions
+in [0.2, 0.6]^2 moving at (0, -1), a 128^2 grid on [0, 1]^2 with walls 3 cells thick,
+quadratic B-splines, MLS-MPM / APIC, gravity 9.8, E = 400, particle volume (h/2)^2,
+density 1: mpm88's weakly compressible fluid (Kirchhoff stress E (J - 1) I), or with
+``--jelly`` a fixed-corotated elastic jelly (E = 400, nu = 0.2, as mpm99's). mpm88 ships the
+fixed step 2e-4 s.
+
+    python examples/python/taichi_mpm88.py [--jelly] [--t-end 0.5] [--repeat 3]
+        [--find-failure] [--arch cpu|gpu] [--threads N] [--handover N_PARTICLES] [--fp64]
+        [--config JSON]
+
+* every run times mpm88's fixed step and the controlled run ``--repeat`` times,
+  interleaved (the controller first in every other round), and prints the medians;
+* ``--find-failure`` bisects the fixed step at which the run blows up before ``t_end``
+  (non-finite values, a particle past a wall, J <= 0, or kinetic plus elastic energy above
+  10x what the block has to give: its initial kinetic plus potential energy);
+* ``--handover N`` times one substep, the state export and the package's read of it at N
+  particles (the hand-over's cost per controlled step) and exits.
+"""
+
+
+import argparse
+import json
+import statistics
+import time
+from typing import Any, Optional
+
+import mpm_dt
+import numpy as np
+import taichi as ti  # type: ignore[import-untyped]
+
+MPM88_DT = 2e-4
+GRAVITY = 9.8
+BOUND = 3
+
+
+@ti.data_oriented
+class State:
+    """One state of the particles: position, velocity, affine matrix C, J and F."""
+
+    def __init__(self, n: int) -> None:
+        self.x = ti.Vector.field(2, float, n)
+        self.v = ti.Vector.field(2, float, n)
+        self.C = ti.Matrix.field(2, 2, float, n)
+        self.J = ti.field(float, n)
+        self.F = ti.Matrix.field(2, 2, float, n)
+
+
+@ti.data_oriented
+class Mpm88:
+    """The solver as an mpm_dt stepper: ``try_step`` writes the trial into the second
+    state, ``accept`` swaps the two."""
+
+    def __init__(self, n: int = 8192, n_grid: int = 128, jelly: bool = False, seed: int = 88):
+        self.n, self.n_grid, self.jelly = n, n_grid, jelly
+        self.dx = 1.0 / n_grid
+        self.p_vol = (0.5 * self.dx) ** 2
+        self.p_mass = self.p_vol * 1.0
+        E, nu = 400.0, (0.2 if jelly else 0.0)
+        self.lam, self.mu = (E * nu / ((1 + nu) * (1 - 2 * nu)), E / (2 * (1 + nu))) if jelly else (E, 0.0)
+        self.states = [State(n), State(n)]
+        self.grid_v = ti.Vector.field(2, float, (n_grid, n_grid))
+        self.grid_m = ti.field(float, (n_grid, n_grid))
+        # What the view reads, packed into one array (one `to_numpy` per state): x, v, F
+        # and the Cauchy stress, 12 numbers per particle.
+        self.packed = ti.field(float, (n, 12))
+        self.sums = ti.field(ti.f64, 5)
+        self.escaped = ti.field(int, ())
+        rng = np.random.default_rng(seed)
+        s = self.states[0]
+        real = s.x.to_numpy().dtype  # float32, or float64 with --fp64
+        s.x.from_numpy((rng.random((n, 2)) * 0.4 + 0.2).astype(real))
+        s.v.from_numpy(np.tile(np.array([0.0, -1.0], real), (n, 1)))
+        self.reset_rest(s)
+        self.t = self.t_trial = 0.0
+        self.solver_s = self.export_s = 0.0
+        self.mass = np.full(n, self.p_mass)
+        self.volume0 = np.full(n, self.p_vol)
+        self.lame = np.tile([self.lam, self.mu], (n, 1))
+        self.budget = self.energies()[0] + self.energies()[2]
+
+    @ti.kernel
+    def reset_rest(self, s: ti.template()):
+        for p in s.x:
+            s.C[p] = ti.Matrix.zero(float, 2, 2)
+            s.J[p] = 1.0
+            s.F[p] = ti.Matrix.identity(float, 2)
+
+    @ti.func
+    def kirchhoff(self, F, J):
+        tau = ti.Matrix.identity(float, 2) * (self.lam * (J - 1.0))
+        if ti.static(self.jelly):
+            R, _ = ti.polar_decompose(F)
+            tau = 2.0 * self.mu * (F - R) @ F.transpose() + ti.Matrix.identity(float, 2) * (self.lam * (J - 1.0) * J)
+        return tau
+
+    @ti.func
+    def inside(self, base):
+        """Whether the 3 x 3 stencil from `base` is on the grid (not so only after a
+        blow-up, which mpm88 does not guard against: its walls keep sane runs inside)."""
+        return 0 <= base.x <= self.n_grid - 3 and 0 <= base.y <= self.n_grid - 3
+
+    @ti.kernel
+    def substep(self, a: ti.template(), b: ti.template(), dt: float):
+        """mpm88's substep from state a into state b (particle to grid, grid, grid to particle)."""
+        for i, j in self.grid_m:
+            self.grid_v[i, j] = [0, 0]
+            self.grid_m[i, j] = 0
+        for p in a.x:
+            Xp = a.x[p] / self.dx
+            base = int(Xp - 0.5)
+            if not self.inside(base):
+                continue
+            fx = Xp - base
+            w = [0.5 * (1.5 - fx) ** 2, 0.75 - (fx - 1) ** 2, 0.5 * (fx - 0.5) ** 2]
+            stress = -dt * 4 * self.p_vol * self.kirchhoff(a.F[p], a.J[p]) / self.dx**2
+            affine = stress + self.p_mass * a.C[p]
+            for i, j in ti.static(ti.ndrange(3, 3)):
+                offset = ti.Vector([i, j])
+                dpos = (offset - fx) * self.dx
+                weight = w[i].x * w[j].y
+                self.grid_v[base + offset] += weight * (self.p_mass * a.v[p] + affine @ dpos)
+                self.grid_m[base + offset] += weight * self.p_mass
+        for i, j in self.grid_m:
+            if self.grid_m[i, j] > 0:
+                self.grid_v[i, j] /= self.grid_m[i, j]
+            self.grid_v[i, j].y -= dt * GRAVITY
+            if i < BOUND and self.grid_v[i, j].x < 0:
+                self.grid_v[i, j].x = 0
+            if i > self.n_grid - BOUND and self.grid_v[i, j].x > 0:
+                self.grid_v[i, j].x = 0
+            if j < BOUND and self.grid_v[i, j].y < 0:
+                self.grid_v[i, j].y = 0
+            if j > self.n_grid - BOUND and self.grid_v[i, j].y > 0:
+                self.grid_v[i, j].y = 0
+        for p in a.x:
+            Xp = a.x[p] / self.dx
+            base = int(Xp - 0.5)
+            if not self.inside(base):
+                # A blown-up run (fixed steps): the particle stays out and is counted.
+                b.x[p] = a.x[p]
+                self.escaped[None] += 1
+                continue
+            fx = Xp - base
+            w = [0.5 * (1.5 - fx) ** 2, 0.75 - (fx - 1.0) ** 2, 0.5 * (fx - 0.5) ** 2]
+            new_v = ti.Vector.zero(float, 2)
+            new_C = ti.Matrix.zero(float, 2, 2)
+            for i, j in ti.static(ti.ndrange(3, 3)):
+                offset = ti.Vector([i, j])
+                dpos = (offset - fx) * self.dx
+                weight = w[i].x * w[j].y
+                g_v = self.grid_v[base + offset]
+                new_v += weight * g_v
+                new_C += 4 * weight * g_v.outer_product(dpos) / self.dx**2
+            b.v[p] = new_v
+            b.x[p] = a.x[p] + dt * new_v
+            b.C[p] = new_C
+            if ti.static(self.jelly):
+                b.F[p] = (ti.Matrix.identity(float, 2) + dt * new_C) @ a.F[p]
+                b.J[p] = b.F[p].determinant()
+            else:
+                b.J[p] = a.J[p] * (1 + dt * new_C.trace())
+                b.F[p] = ti.Matrix.identity(float, 2) * ti.sqrt(ti.max(b.J[p], 0.0))
+
+    @ti.kernel
+    def export(self, s: ti.template()):
+        """x, v, F (sqrt(J) I for the fluid) and the Cauchy stress tau / J, packed."""
+        for p in s.x:
+            sigma = self.kirchhoff(s.F[p], s.J[p]) / s.J[p]
+            for a in ti.static(range(2)):
+                self.packed[p, a] = s.x[p][a]
+                self.packed[p, 2 + a] = s.v[p][a]
+                for b in ti.static(range(2)):
+                    self.packed[p, 4 + 2 * a + b] = s.F[p][a, b]
+                    self.packed[p, 8 + 2 * a + b] = sigma[a, b]
+
+    @ti.kernel
+    def reduce(self, s: ti.template()):
+        """Kinetic, elastic and potential energy, min J, and particles off the box."""
+        for k in ti.static(range(5)):
+            self.sums[k] = 0.0
+        self.sums[3] = 1e30
+        for p in s.x:
+            J = s.J[p]
+            el = 0.5 * self.lam * (J - 1.0) ** 2
+            if ti.static(self.jelly):
+                R, _ = ti.polar_decompose(s.F[p])
+                el += self.mu * (s.F[p] - R).norm_sqr()
+            self.sums[0] += ti.cast(0.5 * self.p_mass * s.v[p].norm_sqr(), ti.f64)
+            self.sums[1] += ti.cast(self.p_vol * el, ti.f64)
+            self.sums[2] += ti.cast(self.p_mass * GRAVITY * s.x[p].y, ti.f64)
+            ti.atomic_min(self.sums[3], ti.cast(J, ti.f64))
+            lo, hi = self.dx, 1.0 - self.dx
+            if not (lo <= s.x[p].x <= hi and lo <= s.x[p].y <= hi):
+                self.sums[4] += 1.0
+
+    def energies(self, s: Optional[State] = None) -> list[float]:
+        self.reduce(s or self.states[0])
+        return [float(v) for v in self.sums.to_numpy()]
+
+    def blown_up(self, s: Optional[State] = None) -> Optional[str]:
+        kin, el, _, min_j, out = self.energies(s)
+        if self.escaped[None] > 0:
+            return f"particles left the grid ({self.escaped[None]} times)"
+        if not np.isfinite(kin + el + min_j):
+            return "non-finite values"
+        if out > 0 or min_j <= 0:
+            return f"{int(out)} particles off the box, min J = {min_j:.3g}"
+        return f"energy {kin + el:.3g} > 10x budget" if kin + el > 10 * self.budget else None
+
+    # The mpm_dt stepper protocol.
+    def time(self) -> float:
+        return self.t
+
+    def try_step(self, dt: float) -> None:
+        start = time.perf_counter()
+        self.substep(self.states[0], self.states[1], dt)
+        ti.sync()
+        self.solver_s += time.perf_counter() - start
+        self.t_trial = self.t + dt
+
+    def accept(self) -> None:
+        self.states.reverse()
+        self.t = self.t_trial
+
+    def reject(self) -> None:
+        pass
+
+    def state(self, trial: bool) -> dict[str, Any]:
+        start = time.perf_counter()
+        self.export(self.states[1 if trial else 0])
+        a = self.packed.to_numpy()
+        x = a[:, 0:2]
+        if trial and not (self.dx <= x.min() and x.max() <= 1 - self.dx):
+            raise mpm_dt.StepFailed("a particle crossed a wall")
+        out = dict(x=x, v=a[:, 2:4], F=a[:, 4:8].reshape(-1, 2, 2), stress=a[:, 8:12].reshape(-1, 2, 2),
+                   mass=self.mass, volume0=self.volume0, lame=self.lame, cells=(self.n_grid,) * 2,
+                   length=(1.0, 1.0), boundary="fixed", shape="bspline2", transfer="apic",
+                   gradient="mls")
+        self.export_s += time.perf_counter() - start
+        return out
+
+    def reset(self) -> None:
+        """Back to the initial state (the same fields, so that no kernel is compiled again)."""
+        if not hasattr(self, "initial"):
+            self.initial = (self.states[0], self.states[0].x.to_numpy(), self.states[0].v.to_numpy())
+        first, x, v = self.initial
+        if self.states[0] is not first:
+            self.states.reverse()
+        first.x.from_numpy(x)
+        first.v.from_numpy(v)
+        self.reset_rest(first)
+        self.escaped[None] = 0
+        self.t = self.t_trial = self.solver_s = self.export_s = 0.0
+
+
+def warm_up(sim: Mpm88) -> None:
+    """Compiles every kernel for both orders of the two states."""
+    sim.reset()
+    for _ in range(2):
+        sim.try_step(1e-6)
+        sim.state(True)
+        sim.accept()
+        sim.energies(sim.states[0])
+    sim.reset()
+
+
+def run_fixed(sim: Mpm88, dt: float, t_end: float, check_every: int = 0) -> tuple[int, Optional[str], float]:
+    """mpm88's loop with a fixed step: (steps, blow-up, wall time of the stepping)."""
+    sim.reset()
+    steps, blown, start = 0, None, time.perf_counter()
+    t = 0.0
+    while t < t_end * (1 - 1e-12):
+        step = min(dt, t_end - t)
+        sim.substep(sim.states[0], sim.states[1], step)
+        sim.states.reverse()
+        t += step
+        steps += 1
+        if check_every and steps % check_every == 0:
+            blown = sim.blown_up()
+            if blown:
+                break
+    ti.sync()
+    wall = time.perf_counter() - start
+    return steps, blown or sim.blown_up(), wall
+
+
+def run_controlled(sim: Mpm88, t_end: float, config: dict[str, Any]) -> dict[str, Any]:
+    """The scene under the controller with the standard limits (no tuning unless `config`
+    says so); a controller error is reported in the summary's "error"."""
+    sim.reset()
+    start = time.perf_counter()
+    ctrl = mpm_dt.Controller(dim=2, config=config, gravity=(0.0, -GRAVITY))
+    try:
+        summary = ctrl.run_until(sim, t_end)
+        summary["error"] = None
+    except mpm_dt.ControllerError as e:
+        summary = dict(ctrl.stats, t_final=sim.time(), error=f"{type(e).__name__}: {e}")
+    summary["wall_s"] = time.perf_counter() - start
+    summary["solver_s"], summary["export_s"] = sim.solver_s, sim.export_s
+    summary["blew_up"] = sim.blown_up()
+    return summary
+
+
+def find_failure(sim: Mpm88, t_end: float) -> float:
+    """Bisection of the fixed step between a stable and an unstable one (10 halvings)."""
+    lo, hi = MPM88_DT, 5 * MPM88_DT
+    assert run_fixed(sim, lo, t_end, 10)[1] is None and run_fixed(sim, hi, t_end, 10)[1]
+    for _ in range(10):
+        mid = 0.5 * (lo + hi)
+        blown = run_fixed(sim, mid, t_end, 10)[1]
+        print(f"  dt = {mid:.4e}: {blown or 'stable'}")
+        lo, hi = (lo, mid) if blown else (mid, hi)
+    return lo
+
+
+def handover(n: int, jelly: bool, reps: int = 20) -> None:
+    """The hand-over per controlled step against one substep, at n particles."""
+    sim = Mpm88(n=n, jelly=jelly)
+    warm_up(sim)
+    sim.try_step(MPM88_DT)
+    s = sim.state(True)
+    mpm_dt.read_state(s)
+    times = {}
+    for name, f in (("substep", lambda: (sim.substep(sim.states[0], sim.states[1], MPM88_DT), ti.sync())),
+                    ("state(True) export", lambda: sim.state(True)),
+                    ("mpm_dt read (arrays, weights, nodal fields)", lambda: mpm_dt.read_state(s))):
+        start = time.perf_counter()
+        for _ in range(reps):
+            f()
+        times[name] = (time.perf_counter() - start) / reps
+    for name, t in times.items():
+        print(f"  {name:45s} {t * 1e3:8.3f} ms  ({t / times['substep']:.2f} substeps)")
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--jelly", action="store_true")
+    p.add_argument("--t-end", type=float, default=0.5)
+    p.add_argument("--repeat", type=int, default=3)
+    p.add_argument("--find-failure", action="store_true")
+    p.add_argument("--arch", choices=["cpu", "gpu"], default="cpu")
+    p.add_argument("--threads", type=int, default=1)
+    p.add_argument("--handover", type=int, default=0, metavar="N_PARTICLES")
+    p.add_argument("--config", default="{}", help="the controller config as JSON (default: {})")
+    p.add_argument("--fp64", action="store_true", help="taichi in float64 (mpm88 runs float32)")
+    args = p.parse_args()
+    ti.init(arch=ti.cpu if args.arch == "cpu" else ti.gpu, cpu_max_num_threads=args.threads,
+            default_fp=ti.f64 if args.fp64 else ti.f32, log_level=ti.WARN)
+    scene = "jelly" if args.jelly else "fluid"
+    if args.handover:
+        print(f"hand-over at {args.handover} particles ({scene}, {args.arch}, {args.threads} thread(s)):")
+        handover(args.handover, args.jelly)
+        return
+    sim = Mpm88(jelly=args.jelly)
+    warm_up(sim)
+    print(f"mpm88 {scene}: {sim.n} particles, {sim.n_grid}^2 cells, to t = {args.t_end} "
+          f"({args.arch}, {args.threads} thread(s))")
+    failure = find_failure(sim, args.t_end) if args.find_failure else None
+    if failure:
+        print(f"failure step: fixed steps blow up above {failure:.4e} s (mpm88's 2e-4 = {MPM88_DT / failure:.2f} of it)")
+    fixed, controlled = [], []
+    for r in range(args.repeat):
+        for which in (("c", "f") if r % 2 == 0 else ("f", "c")):
+            if which == "f":
+                fixed.append(run_fixed(sim, MPM88_DT, args.t_end))
+            else:
+                controlled.append(run_controlled(sim, args.t_end, json.loads(args.config)))
+    f_wall = statistics.median(w for _, _, w in fixed)
+    c_wall = statistics.median(c["wall_s"] for c in controlled)
+    c = controlled[0]
+    steps = c["steps_accepted"] + c["steps_rejected"]
+    runs = ", ".join(f"{w:.3f}" for _, _, w in fixed)
+    print(f"mpm88 fixed 2e-4: {fixed[0][0]} steps, blow-up: {fixed[0][1] or 'none'}; "
+          f"wall median {f_wall:.3f} s ({runs})")
+    print(f"controller: {c['steps_accepted']} steps ({c['steps_rejected']} rejected), blow-up: "
+          f"{c['blew_up'] or 'none'}; dt mean {c['dt_mean']:.4e} s"
+          + (f" = {c['dt_mean'] / failure:.3f} of the failure step" if failure else "")
+          + f"; bound by {c['binding']}" + (f"\n  run ended at t = {c['t_final']:.4f}: {c['error']}" if c["error"] else ""))
+    runs = ", ".join(f"{x['wall_s']:.3f}" for x in controlled)
+    print(f"  wall median {c_wall:.3f} s ({runs}): "
+          f"{c_wall / f_wall:.2f}x mpm88's; per attempt: substep {c['solver_s'] / steps * 1e3:.3f} ms, "
+          f"state export {c['export_s'] / steps * 1e3:.3f} ms, mpm_dt (read, weights, nodal fields, "
+          f"limits) {(c['wall_s'] - c['solver_s'] - c['export_s']) / steps * 1e3:.3f} ms")
+
+
+if __name__ == "__main__":
+    main()

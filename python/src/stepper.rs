@@ -1,0 +1,232 @@
+//! A Python stepper as a Rust `Stepper<D>`: every call goes to the Python object (the
+//! GIL is held for the whole run), and the states it reports are read into the package's
+//! storage once — the committed state before the run, each trial right after
+//! `try_step` — so that the library's views borrow Rust memory that no Python code can
+//! change under them.
+//!
+//! Failures:
+//! * `try_step` (or `state(True)`) raising `mpm_dt.StepFailed`, `try_step` returning
+//!   `False`, or a trial state that is
+//!   not finite, inverted (`det F ≤ 0`) or outside the grid: a `StepError` the controller
+//!   retries with a smaller step;
+//! * any other Python exception (in any method, in `on_decision`), or an invalid trial
+//!   dict: kept here, the run is ended with `StepError::Other`, and the caller re-raises
+//!   the kept exception unchanged (with its traceback).
+
+use crate::errors::is_step_failed;
+use crate::state::{Fault, StateNd};
+use mpm_dt::nd::{Vector, ViewNd};
+use mpm_dt::{Dim, Dimension, StepError, Stepper};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use std::cell::RefCell;
+use std::rc::Rc;
+
+/// The first Python exception of a run, shared by the stepper and the decision callback.
+pub type Pending = Rc<RefCell<Option<PyErr>>>;
+
+/// The adapter (module docs).
+pub struct PyStepper<'py, const D: usize> {
+    obj: Bound<'py, PyAny>,
+    gravity: Vector<D>,
+    committed: Box<StateNd<D>>,
+    trial: Option<Box<StateNd<D>>>,
+    spare: Option<Box<StateNd<D>>>,
+    step: u64,
+    pending: Pending,
+}
+
+/// `obj.time()` as a float.
+fn py_time(obj: &Bound<'_, PyAny>) -> PyResult<f64> {
+    obj.call_method0("time")?.extract()
+}
+
+/// `obj.state(trial)` as a dict.
+fn py_state<'py>(obj: &Bound<'py, PyAny>, trial: bool) -> PyResult<Bound<'py, PyDict>> {
+    let s = obj.call_method1("state", (trial,))?;
+    s.downcast_into::<PyDict>().map_err(|e| {
+        crate::errors::state_type_error(
+            obj.py(),
+            format!(
+                "state({trial}) must return a dict, got {}",
+                e.into_inner().get_type()
+            ),
+        )
+    })
+}
+
+impl<'py, const D: usize> PyStepper<'py, D> {
+    /// Reads the committed state of `obj` (a `StateError` if it is invalid or not finite).
+    /// `step` counts the accepted steps so far (the controller's statistics).
+    pub fn new(
+        obj: Bound<'py, PyAny>,
+        gravity: Vector<D>,
+        step: u64,
+        pending: Pending,
+    ) -> PyResult<Self> {
+        let py = obj.py();
+        let t = py_time(&obj)?;
+        if !t.is_finite() {
+            return Err(crate::errors::state_error(
+                py,
+                format!("time() = {t} is not finite"),
+            ));
+        }
+        let dict = py_state(&obj, false)?;
+        let mut committed = Box::<StateNd<D>>::default();
+        committed
+            .read(&dict, &gravity, t, step)
+            .map_err(|f| f.into_pyerr(py, "the committed state (state(False))"))?;
+        Ok(Self {
+            obj,
+            gravity,
+            committed,
+            trial: None,
+            spare: None,
+            step,
+            pending,
+        })
+    }
+
+    /// The committed state.
+    pub fn committed(&self) -> &StateNd<D> {
+        &self.committed
+    }
+
+    /// Keeps `e` (the first one only) and returns the error that ends the run.
+    fn fail(&self, e: PyErr) -> StepError {
+        let msg = format!("Python exception: {e}");
+        self.pending.borrow_mut().get_or_insert(e);
+        StepError::Other(msg)
+    }
+
+    /// The trial's failure as a retryable `StepError`, or the run's end.
+    fn trial_fault(&self, fault: Fault, dt: f64) -> StepError {
+        let (t, step) = (self.committed.t, self.step);
+        match fault {
+            Fault::NonFinite(field, index) => StepError::NonFinite {
+                field,
+                index,
+                t,
+                step,
+                dt,
+            },
+            Fault::Inverted(index, f) => StepError::Inverted {
+                index,
+                f,
+                t,
+                step,
+                dt,
+            },
+            Fault::OutOfGrid(index, x) => StepError::OutOfDomain {
+                index,
+                x,
+                t,
+                step,
+                dt,
+            },
+            Fault::Invalid(e) => self.fail(e),
+        }
+    }
+}
+
+impl<const D: usize> Stepper<D> for PyStepper<'_, D>
+where
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+{
+    fn time(&self) -> f64 {
+        self.committed.t
+    }
+
+    fn step_count(&self) -> u64 {
+        self.step
+    }
+
+    fn try_step(&mut self, dt: f64) -> Result<(), StepError> {
+        if let Some(old) = self.trial.take() {
+            self.spare = Some(old);
+        }
+        if self.pending.borrow().is_some() {
+            return Err(StepError::Other("a Python exception is pending".into()));
+        }
+        let py = self.obj.py();
+        let (t, step) = (self.committed.t, self.step);
+        match self.obj.call_method1("try_step", (dt,)) {
+            Err(e) if is_step_failed(py, &e) => {
+                return Err(StepError::Failed {
+                    message: format!("StepFailed: {}", e.value(py)),
+                    t,
+                    step,
+                    dt,
+                })
+            }
+            Err(e) => return Err(self.fail(e)),
+            Ok(r) if r.is(pyo3::types::PyBool::new(py, false)) => {
+                return Err(StepError::Failed {
+                    message: "try_step returned False".into(),
+                    t,
+                    step,
+                    dt,
+                })
+            }
+            Ok(_) => {}
+        }
+        let dict = match py_state(&self.obj, true) {
+            Ok(d) => d,
+            // The solver's own check of the trial, in `state(True)`: retried too.
+            Err(e) if is_step_failed(py, &e) => {
+                return Err(StepError::Failed {
+                    message: format!("StepFailed: {}", e.value(py)),
+                    t,
+                    step,
+                    dt,
+                })
+            }
+            Err(e) => return Err(self.fail(e)),
+        };
+        let mut s = self.spare.take().unwrap_or_default();
+        match s.read(&dict, &self.gravity, t + dt, step + 1) {
+            Ok(()) => {
+                self.trial = Some(s);
+                Ok(())
+            }
+            Err(f) => {
+                self.spare = Some(s);
+                Err(self.trial_fault(f, dt))
+            }
+        }
+    }
+
+    fn accept(&mut self) -> Result<(), StepError> {
+        let Some(mut trial) = self.trial.take() else {
+            return Err(StepError::NoTrial);
+        };
+        if let Err(e) = self.obj.call_method0("accept") {
+            self.spare = Some(trial);
+            return Err(self.fail(e));
+        }
+        // The solver's own clock: a solver that does not advance it ends the run with
+        // the controller's `NoProgress`.
+        trial.t = py_time(&self.obj).map_err(|e| self.fail(e))?;
+        self.step += 1;
+        self.spare = Some(std::mem::replace(&mut self.committed, trial));
+        Ok(())
+    }
+
+    fn reject(&mut self) {
+        if let Some(old) = self.trial.take() {
+            self.spare = Some(old);
+        }
+        if let Err(e) = self.obj.call_method0("reject") {
+            let _ = self.fail(e);
+        }
+    }
+
+    fn view(&self) -> ViewNd<'_, D> {
+        self.committed.view()
+    }
+
+    fn trial_view(&self) -> Option<ViewNd<'_, D>> {
+        self.trial.as_ref().map(|s| s.view())
+    }
+}
