@@ -38,7 +38,7 @@
 //! gain was stopped by 22 growth detections).
 //!
 //! **On the generic path** the bound's pass costs about one Lanczos product; where the last
-//! ratio was more than 1.5× the threshold it is evaluated again at every
+//! ratio was more than [`LOOK_MARGIN`] (1.2) times the threshold it is evaluated again at every
 //! [`LOOK_EVERY`]th refresh only ([`BoundTracking::worth_a_look`]).
 
 use super::element_bound::element_bound;
@@ -46,6 +46,10 @@ use super::element_bound::element_bound;
 /// On the generic path, a bound found far looser than the threshold is evaluated again at
 /// every this many refreshes only ([`BoundTracking::worth_a_look`]).
 pub const LOOK_EVERY: u32 = 8;
+
+/// On the generic path, the bound is evaluated at every refresh while its last ratio to
+/// the Lanczos value was within this factor of the threshold ([`BoundTracking::worth_a_look`]).
+pub const LOOK_MARGIN: f64 = 1.2;
 use crate::nd::ViewNd;
 use crate::reduce::Reduce;
 
@@ -107,13 +111,14 @@ impl BoundTracking {
     }
 
     /// Whether to evaluate the bound at a refresh: always when the stepper supplies it
-    /// (free), else unless the last ratio was far above the threshold (`> 1.5×`), and
-    /// then at every [`LOOK_EVERY`]th refresh only — on the generic path the bound's pass
-    /// costs about a Lanczos product (measured on the B-spline FLIP block: 1.8 % of the
-    /// run against 11 % for its 3 207 products), wasted where the bound is 2–8× loose.
+    /// (free), else unless the last ratio was above the threshold by more than
+    /// [`LOOK_MARGIN`], and then at every [`LOOK_EVERY`]th refresh only — on the generic
+    /// path the bound's pass costs about a Lanczos product (measured on the B-spline FLIP
+    /// block: 1.8 % of the run against 11 % for its 3 207 products), wasted where the
+    /// bound is loose (1.5–8× on the jelly, GIMP and B-spline layouts).
     pub fn worth_a_look(&self, threshold: f64, supplied: bool) -> bool {
         supplied
-            || self.last_ratio.is_none_or(|q| q <= 1.5 * threshold)
+            || self.last_ratio.is_none_or(|q| q <= LOOK_MARGIN * threshold)
             || self.refreshes_unlooked + 1 >= LOOK_EVERY
     }
 
