@@ -31,7 +31,8 @@
 //!
 //! **Where the stepper supplies the bound** (it costs nothing) and the scheme is FLIP, the
 //! threshold also weighs cost: the step shortens by `√(B/λ)` while each step saves the
-//! Lanczos products per proposal of the last interval the guard ended times
+//! Lanczos products per proposal of the last interval between refreshes (the last warm
+//! refresh's products over the proposals until the guard or the bound's age ended it) times
 //! `product_cost` bare steps, so the limit steps on `B` while
 //! `B/λ ≤ (1 + product_cost·rate)²` ([`BoundTracking::threshold`]). Under APIC it does
 //! not (measured on the mpm88 fluid: stepping on bounds up to 1.9× λ with the top mode's
@@ -66,7 +67,8 @@ pub struct BoundTracking {
     pub bound_proposals: u64,
     /// Bounds evaluated by a pass of the library's own (not supplied by the stepper).
     pub bound_passes: u64,
-    /// Lanczos products per proposal over the last interval that the motion guard ended.
+    /// Lanczos products per proposal over the last interval between refreshes (the last
+    /// warm refresh's products over the proposals until the next was due).
     pub lanczos_rate: Option<f64>,
     /// Refreshes since the bound was last evaluated beside one.
     pub refreshes_unlooked: u32,
@@ -98,7 +100,7 @@ impl BoundTracking {
     /// path; where the stepper supplies the bound from its own pass (it costs nothing),
     /// also more where the Lanczos tracking is dear — the step shortens by `√(B/λ)` while
     /// each step saves `product_cost · rate` bare steps of Lanczos products (`rate`
-    /// products per proposal over the last interval the motion guard ended).
+    /// products per proposal over the last interval between refreshes).
     pub fn threshold(&self, slack: f64, product_cost: f64, supplied: bool) -> f64 {
         if slack < 0.0 {
             return f64::NAN;

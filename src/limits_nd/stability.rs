@@ -349,7 +349,7 @@ impl<const D: usize> StabilityNd<D> {
             return Ok((cached * growth, false));
         }
         if let Some(products) = self.last_products.filter(|_| self.age > 0) {
-            // The guard ended a Lanczos interval: what it cost per proposal.
+            // An interval between refreshes ended: what its refresh cost per proposal.
             self.tracking.lanczos_rate = Some(products as f64 / f64::from(self.age));
         }
         let threshold = self.bound_threshold(state);
