@@ -5,6 +5,7 @@
 //! `λmax` — so that no limit makes a pass over the particles of its own.
 
 use super::solver::Model;
+use mpm_dt::limits_nd::element_bound::from_metric;
 use mpm_dt::nd::{SummaryNd, Vector};
 use nalgebra::{Matrix2, Vector2};
 
@@ -19,8 +20,7 @@ pub struct PassTotals {
     /// `4/h²`, MLS-MPM's `D_p⁻¹` for quadratic B-splines.
     inv: f64,
     h: f64,
-    /// `max(2λ + 2μ, 2μ)` and `λ + 2μ` of the model's tangent about rest.
-    c_vol: f64,
+    /// `λ + 2μ` of the model's tangent about rest.
     c_p: f64,
     /// The model's small-strain Lamé parameters.
     lambda: f64,
@@ -51,7 +51,6 @@ impl PassTotals {
             unit_step: f64::INFINITY,
             inv: 4.0 / (h * h),
             h,
-            c_vol: (2.0 * lambda + 2.0 * mu).max(2.0 * mu),
             c_p: lambda + 2.0 * mu,
             lambda,
             mu,
@@ -70,7 +69,14 @@ impl PassTotals {
         self.strain += self.complementary_energy(p);
         self.first_moment += p.mass * p.x;
         let volume = p.f.determinant() * p.volume0;
-        let bound = self.inv * volume / p.mass * self.c_vol;
+        // MLS-MPM's gradient metric is `(4/h²) I`: row sum `4/h²`, trace `2·4/h²`.
+        let bound = from_metric::<2>(
+            self.inv,
+            2.0 * self.inv,
+            volume / p.mass,
+            self.lambda,
+            self.mu,
+        );
         if bound.is_nan() || bound > self.element_bound {
             self.element_bound = bound;
         }

@@ -19,6 +19,7 @@
 //! fields are finite, the speed-of-sound step and the element bound on `λmax`
 //! (`mpm_dt::limits_nd::element_bound`), from the particle's own B-spline gradients.
 
+use mpm_dt::limits_nd::element_bound::from_metric;
 use mpm_dt::nd::{GridNd, SummaryNd, Tensor, Vector, ViewNd, WeightsNd};
 use mpm_dt::{Boundary, StepError, Stepper};
 use nalgebra::{Matrix2, Vector2};
@@ -345,7 +346,13 @@ fn particle_to_grid(
                 0.5 * mass[p] * s.v[p].norm_squared(),
                 mass[p] * s.x[p],
                 volume0[p] * energy_density(ph, &f, ln_j),
-                element_bound(metric, vol / mass[p], l, m),
+                from_metric::<2>(
+                    metric[0].max(metric[1]),
+                    metric[0] + metric[1],
+                    vol / mass[p],
+                    l,
+                    m,
+                ),
                 h / (((l + 2.0 * m) / s.density[p]).sqrt() + s.v[p].amax()),
                 // One non-finite entry makes the sum non-finite.
                 (s.x[p].sum() + s.v[p].sum() + f.sum()).is_finite(),
@@ -370,15 +377,6 @@ fn particle_to_grid(
 /// diagonal with `H_aa = Σ_k s'_k²/s_k` over the axis's three weights.
 fn metric_of(w: &[f64; 3], d: &[f64; 3]) -> f64 {
     (0..3).map(|k| d[k] * d[k] / w[k]).sum()
-}
-
-/// One particle's element bound from its (diagonal) gradient metric
-/// (`mpm_dt::limits_nd::element_bound`: the smaller of `λ̄(H)·max(2λ+2μ, 2μ)` and
-/// `tr(H)·max(λ+2μ, 2μ)`, times `V_p/m_p`).
-fn element_bound(h: [f64; 2], per_mass: f64, l: f64, m: f64) -> f64 {
-    let c_vol = (2.0 * l + 2.0 * m).max(2.0 * m);
-    let c_p = (l + 2.0 * m).max(2.0 * m);
-    per_mass * (h[0].max(h[1]) * c_vol).min((h[0] + h[1]) * c_p)
 }
 
 /// The totals of a pass (the opt-in contract).

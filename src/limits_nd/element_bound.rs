@@ -104,10 +104,26 @@ pub fn particle_bound<const D: usize>(
     let row_sum = (0..D)
         .map(|a| h[a].iter().map(|x| x.abs()).sum::<f64>())
         .fold(0.0f64, f64::max);
-    let (l, m) = (view.lame_lambda[p], view.lame_mu[p]);
+    let per_mass = view.volume(p) / view.mass[p];
+    from_metric::<D>(
+        row_sum,
+        trace,
+        per_mass,
+        view.lame_lambda[p],
+        view.lame_mu[p],
+    )
+}
+
+/// One particle's `λ_p` (module docs) from its gradient metric `H_p`, given as its largest
+/// Gershgorin row sum `row_sum ≥ λmax(H_p)` and its trace, its `V_p/m_p` and its tangent
+/// moduli: `(V_p/m_p)·min(row_sum·max(Dλ_t + 2μ_t, 2μ_t), tr(H_p)·max(λ_t + 2μ_t, 2μ_t))`.
+/// What a stepper computes in its own pass to hand the bound over
+/// ([`crate::nd::SummaryNd::element_bound`]): for tensor-product weights `H_p` is diagonal,
+/// `H_aa = Σ_k s'_k²/s_k` over axis `a`'s weights; for MLS-MPM's gradients `H_p = (4/h²) I`.
+#[inline]
+pub fn from_metric<const D: usize>(row_sum: f64, trace: f64, per_mass: f64, l: f64, m: f64) -> f64 {
     let c_vol = (D as f64 * l + 2.0 * m).max(2.0 * m);
     let c_p = (l + 2.0 * m).max(2.0 * m);
-    let per_mass = view.volume(p) / view.mass[p];
     per_mass * (row_sum * c_vol).min(trace * c_p)
 }
 

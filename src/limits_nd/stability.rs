@@ -244,12 +244,14 @@ impl<const D: usize> StabilityNd<D> {
     }
 
     /// `m_min` is the view's [`Self::smallest_node_mass`], `diag` its [`diagonal_argmax`]
-    /// when [`Self::staleness`] computed it.
+    /// when [`Self::staleness`] computed it, `bound` its element bound when
+    /// [`Self::tracked_lambda`] evaluated it just before (not evaluated twice).
     fn refresh(
         &mut self,
         view: &ViewNd<'_, D>,
         m_min: f64,
         diag: Option<(f64, usize)>,
+        bound: Option<f64>,
     ) -> Result<f64, LimitError> {
         let n = view.n_nodes() * D;
         let space = NodalSpace::new(view, &*self.reduce);
@@ -316,14 +318,18 @@ impl<const D: usize> StabilityNd<D> {
         self.last_products = warm.then_some(r.applications as u64);
         self.lambda = Some(lambda);
         let threshold = self.bound_threshold(view);
-        if self.config.bound_slack >= 0.0
-            && self
-                .tracking
-                .worth_a_look(threshold, view_supplies_bound(view))
-        {
-            let bound = self
-                .tracking
-                .bound_of(view, Self::agreement(&*self.reduce, view));
+        let look = bound.is_some()
+            || self.config.bound_slack >= 0.0
+                && self
+                    .tracking
+                    .worth_a_look(threshold, view_supplies_bound(view));
+        if look {
+            let bound = match bound {
+                Some(b) => b,
+                None => self
+                    .tracking
+                    .bound_of(view, Self::agreement(&*self.reduce, view)),
+            };
             self.tracking.after_refresh(lambda, bound, threshold);
         } else {
             self.tracking.skipped_refresh();
@@ -358,6 +364,7 @@ impl<const D: usize> StabilityNd<D> {
             && self
                 .tracking
                 .worth_a_look(threshold, view_supplies_bound(state));
+        let mut looked = None;
         if let Some(cached) = self.lambda.filter(|_| look) {
             let bound = self
                 .tracking
@@ -369,8 +376,9 @@ impl<const D: usize> StabilityNd<D> {
                 self.tracking.bound_proposals += 1;
                 return Ok((bound, false));
             }
+            looked = Some(bound);
         }
-        Ok((self.refresh(state, m_min, diag)?, true))
+        Ok((self.refresh(state, m_min, diag, looked)?, true))
     }
 
     /// The largest `B/λ` stepped on ([`BoundTracking::threshold`]).
