@@ -5,6 +5,7 @@ use mpm_dt::controller::{
     ConfigError, ControllerConfig, FilterPreset, GrowthConfig, GrowthIndicator, SoderlindFilter,
     TemporalErrorConfig,
 };
+use mpm_dt::limits_nd::StabilityNdConfig;
 use mpm_dt::stability::{SoundSpeedConfig, StabilityConfig};
 use proptest::prelude::*;
 use proptest::test_runner::FileFailurePersistence;
@@ -235,6 +236,7 @@ fn config() -> impl Strategy<Value = ControllerConfig> {
                 safety_factor: g.6,
                 min_safety_scale: g.7,
                 energy_confirm: g.5,
+                energy_tol: g.4 - 1.0,
             },
             // The standard limits: present or left out, with in-range settings.
             stability: g.0.then_some(StabilityConfig {
@@ -242,6 +244,13 @@ fn config() -> impl Strategy<Value = ControllerConfig> {
                 ..StabilityConfig::default()
             }),
             sound_speed: g.1.then_some(SoundSpeedConfig { alpha: g.4 }),
+            // In-range tracking settings (its safety is `stability.safety`, not in JSON).
+            stability_nd: StabilityNdConfig {
+                refresh_cells: b.2,
+                bound_slack: t.7 - 0.5,
+                bound_age: g.2,
+                ..StabilityNdConfig::default()
+            },
         })
 }
 

@@ -36,9 +36,7 @@ mod solver;
 mod summary;
 
 use mpm_dt::controller::{Controller, ControllerConfig};
-use mpm_dt::limits_nd::{
-    standard_limits, SoundSpeedNd, StabilityNd, StabilityNdConfig, TransferNd,
-};
+use mpm_dt::limits_nd::{standard_limits, SoundSpeedNd, TransferNd};
 use mpm_dt::nd::Vector;
 use mpm_dt::Stepper;
 use nalgebra::Vector2;
@@ -177,21 +175,13 @@ struct ControlledRun {
 /// with no tuning.
 fn run_controlled(scene: Scene) -> ControlledRun {
     let mut s = build(scene);
-    let config = ControllerConfig::default();
-    let mut limits = standard_limits::<2>(&config, Vector::<2>::new(0.0, -9.8));
+    let mut config = ControllerConfig::default();
     if scene.apic {
-        // The same stability limit, told that the scheme transfers velocities by APIC
-        // with quadratic B-splines (inertia h²/4): a property of the scheme, not a tuning.
-        for limit in limits.iter_mut() {
-            if limit.name() == mpm_dt::limits_nd::STABILITY {
-                *limit = Box::new(StabilityNd::<2>::new(StabilityNdConfig {
-                    safety: config.stability.as_ref().map_or(0.9, |s| s.safety),
-                    transfer: TransferNd::Apic { inertia: 0.25 },
-                    ..StabilityNdConfig::default()
-                }));
-            }
-        }
+        // The stability limit told that the scheme transfers velocities by APIC with
+        // quadratic B-splines (inertia h²/4): a property of the scheme, not a tuning.
+        config.stability_nd.transfer = TransferNd::Apic { inertia: 0.25 };
     }
+    let limits = standard_limits::<2>(&config, Vector::<2>::new(0.0, -9.8));
     let start = std::time::Instant::now();
     let mut controller = match Controller::<2>::new(config, limits) {
         Ok(c) => c,

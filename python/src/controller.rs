@@ -5,7 +5,7 @@ use crate::convert::{decision_dict, summary_dict};
 use crate::errors::{controller_error, error};
 use crate::stepper::{Pending, PyStepper};
 use mpm_dt::controller::{Controller, ControllerConfig, Decision, Outcome};
-use mpm_dt::limits_nd::{standard_limits, StabilityNd, StabilityNdConfig, TransferNd, STABILITY};
+use mpm_dt::limits_nd::{standard_limits, TransferNd};
 use mpm_dt::nd::{Vector, ViewNd};
 use mpm_dt::{Dim, Dimension};
 use pyo3::prelude::*;
@@ -68,19 +68,13 @@ where
         gravity: Vector<D>,
         transfer: TransferNd,
     ) -> PyResult<Controller<D>> {
-        let mut limits = standard_limits::<D>(config, gravity);
+        let mut config = config.clone();
+        // The state's `"transfer"` when it names one; else the config's `stability_nd`.
         if transfer != TransferNd::Flip {
-            for limit in limits.iter_mut() {
-                if limit.name() == STABILITY {
-                    *limit = Box::new(StabilityNd::<D>::new(StabilityNdConfig {
-                        safety: config.stability.as_ref().map_or(0.9, |s| s.safety),
-                        transfer,
-                        ..StabilityNdConfig::default()
-                    }));
-                }
-            }
+            config.stability_nd.transfer = transfer;
         }
-        Controller::new(config.clone(), limits).map_err(|e| controller_error(py, &e))
+        let limits = standard_limits::<D>(&config, gravity);
+        Controller::new(config, limits).map_err(|e| controller_error(py, &e))
     }
 
     fn run<'py>(

@@ -18,6 +18,7 @@
 use super::filter::FilterPreset;
 use super::growth::GrowthConfig;
 use super::temporal_config::TemporalErrorConfig;
+use crate::limits_nd::StabilityNdConfig;
 use crate::stability::{SoundSpeedConfig, StabilityConfig, StabilityError};
 use serde::{Deserialize, Serialize};
 
@@ -100,6 +101,12 @@ pub struct ControllerConfig {
     /// `h/c`, which the stability limit tracks — and binds only when particles move fast
     /// compared with the wave speed (it keeps a particle from crossing a cell per step).
     pub sound_speed: Option<SoundSpeedConfig>,
+    /// 2D/3D only: how the stability limit ([`crate::limits_nd::StabilityNd`]) tracks
+    /// `λmax` — refresh settings, Lanczos tolerance, the scheme's velocity transfer (FLIP or
+    /// APIC), the bound mode. Its safety is `stability.safety` (not read from JSON here);
+    /// `stability: null` leaves the limit out in every dimension. Setting any field in a 1D
+    /// run is an error ([`ControllerConfig::validate_for`]).
+    pub stability_nd: StabilityNdConfig,
 }
 
 impl Default for ControllerConfig {
@@ -125,6 +132,7 @@ impl Default for ControllerConfig {
                 ..StabilityConfig::default()
             }),
             sound_speed: Some(SoundSpeedConfig { alpha: 1.0 }),
+            stability_nd: StabilityNdConfig::default(),
         }
     }
 }
@@ -154,6 +162,17 @@ pub enum ConfigError {
         other: &'static str,
         /// That field's value.
         other_value: f64,
+    },
+    /// A field that does not apply in the run's dimension was set
+    /// ([`ControllerConfig::validate_for`]).
+    #[error("controller config: {field} does not apply in {dim}D runs (it is a setting of {applies}); remove it")]
+    NotInDimension {
+        /// Field path, e.g. `"stability.bound58_every"`.
+        field: &'static str,
+        /// The run's dimension.
+        dim: usize,
+        /// Where the field applies, in words.
+        applies: &'static str,
     },
     /// The JSON could not be parsed into a config.
     #[error("controller config: {message}")]
@@ -297,6 +316,11 @@ impl ControllerConfig {
                 message: format!("{prefix}: {other}"),
             },
         };
+        let mut nd = self.stability_nd.clone();
+        if let Some(c) = &self.stability {
+            nd.safety = c.safety;
+        }
+        nd.validate()?;
         if let Some(c) = self.stability {
             crate::stability::Stability::new(c).map_err(|e| stability_field(e, "stability"))?;
         }

@@ -91,6 +91,10 @@ pub struct GrowthConfig {
     /// compared windows must exceed that over the first by this relative amount (default
     /// 0.01; 0 switches the confirmation off). See the module docs.
     pub energy_confirm: f64,
+    /// 2D/3D only ([`crate::limits_nd::GrowthNd`], an energy monitor): a rise of the
+    /// mechanical energy over `windows × window` accepted steps by more than this fraction
+    /// of the kinetic plus elastic energy at their start is growth (default 0.1).
+    pub energy_tol: f64,
 }
 
 impl Default for GrowthConfig {
@@ -105,6 +109,7 @@ impl Default for GrowthConfig {
             safety_factor: 0.9,
             min_safety_scale: 0.1,
             energy_confirm: 0.01,
+            energy_tol: 0.1,
         }
     }
 }
@@ -141,6 +146,12 @@ impl GrowthConfig {
             self.energy_confirm,
             self.energy_confirm.is_finite() && self.energy_confirm >= 0.0,
             "finite and >= 0",
+        )?;
+        check(
+            "growth.energy_tol",
+            self.energy_tol,
+            self.energy_tol.is_finite() && self.energy_tol > 0.0,
+            "finite and > 0",
         )?;
         check(
             "growth.min_safety_scale",

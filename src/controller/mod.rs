@@ -47,6 +47,7 @@
 mod attempt;
 mod checkpoint;
 mod config;
+mod config_dims;
 mod decision;
 pub mod deferral;
 mod door;
@@ -60,6 +61,7 @@ mod temporal_error;
 mod temporal_kernels;
 
 pub use checkpoint::{Checkpoint, ControllerCheckpoint, ControllerState, LimitCheckpoint};
+pub(crate) use config::check;
 pub use config::{ConfigError, ControllerConfig};
 pub use decision::{bound, metric, Decision, LimitRecord, Outcome};
 pub use error::ControllerError;
@@ -119,7 +121,7 @@ where
         config: ControllerConfig,
         limits: Vec<Box<dyn StepLimit<D>>>,
     ) -> Result<Self, ControllerError> {
-        config.validate()?;
+        config.validate_for(D)?;
         let state = ControllerState {
             dt_prev: None,
             no_growth_next: false,
@@ -192,7 +194,7 @@ where
         checkpoint: ControllerCheckpoint,
         mut limits: Vec<Box<dyn StepLimit<D>>>,
     ) -> Result<Self, ControllerError> {
-        checkpoint.config.validate()?;
+        checkpoint.config.validate_for(D)?;
         if limits.len() != checkpoint.limits.len() {
             return Err(ControllerError::Restore {
                 message: format!(

@@ -12,9 +12,11 @@
 //!   dense eq 56, empirical bisection on real runs).
 //!
 //! [`standard_limits`] builds the controller's list from a [`ControllerConfig`]:
-//! `sound_speed.alpha` → [`SoundSpeedNd`], `stability.safety` → [`StabilityNd`],
-//! `temporal` → [`TemporalErrorNd`] (when `temporal.enabled`),
-//! `growth.enabled`/`growth.window` → [`GrowthNd`] (over `4 · window` steps, tolerance 10 %).
+//! `sound_speed.alpha` → [`SoundSpeedNd`], `stability.safety` and `stability_nd` →
+//! [`StabilityNd`], `temporal` → [`TemporalErrorNd`] (when `temporal.enabled`),
+//! `growth.enabled`, `window`, `windows`, `energy_tol` → [`GrowthNd`] (over
+//! `windows · window` steps, default 100, tolerance 10 %). The fields that apply in 1D
+//! only are refused by the controller ([`ControllerConfig::validate_for`]).
 //!
 //! ```
 //! use mpm_dt::controller::{Controller, ControllerConfig};
@@ -44,6 +46,7 @@ pub mod full_map;
 mod growth;
 mod sound_speed;
 mod stability;
+mod stability_config;
 mod start;
 pub mod stiffness;
 mod temporal_error;
@@ -52,7 +55,8 @@ mod transfer;
 
 pub use growth::{GrowthNd, GROWTH};
 pub use sound_speed::{SoundSpeedNd, SOUND_SPEED};
-pub use stability::{StabilityNd, StabilityNdConfig, STABILITY};
+pub use stability::{StabilityNd, STABILITY};
+pub use stability_config::StabilityNdConfig;
 pub use temporal_error::TemporalErrorNd;
 pub use transfer::{apic_gain, TransferNd};
 
@@ -78,18 +82,18 @@ where
     if let Some(s) = &config.stability {
         limits.push(Box::new(StabilityNd::<D>::new(StabilityNdConfig {
             safety: s.safety,
-            ..StabilityNdConfig::default()
+            ..config.stability_nd.clone()
         })));
     }
     if config.temporal.enabled {
         limits.push(Box::new(TemporalErrorNd::<D>::new(config.temporal.clone())));
     }
     if config.growth.enabled {
-        // Over four of the configured windows, 10 % of the kinetic plus elastic energy.
+        let growth = &config.growth;
         limits.push(Box::new(GrowthNd::new(
             gravity,
-            4 * config.growth.window as usize,
-            0.1,
+            (growth.windows * growth.window) as usize,
+            growth.energy_tol,
         )));
     }
     limits

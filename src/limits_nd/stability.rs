@@ -72,6 +72,7 @@
 mod guard;
 
 use super::bound_tracking::BoundTracking;
+use super::stability_config::StabilityNdConfig;
 use super::start::checkerboard_start;
 use super::stiffness::{diagonal_argmax, lanczos_reduced, NodalSpace};
 use super::transfer::{apic_gain, TransferNd};
@@ -79,76 +80,10 @@ use crate::dimension::{Dim, Dimension};
 use crate::limit::{LimitError, Metrics, Proposal, StepLimit};
 use crate::nd::{Vector, ViewNd};
 use crate::reduce::{Reduce, SingleProcess};
-use serde::{Deserialize, Serialize};
 use std::rc::Rc;
 
 /// Name in logs: `"stability"`.
 pub const STABILITY: &str = "stability";
-
-/// Settings of [`StabilityNd`].
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct StabilityNdConfig {
-    /// Fraction of `dt_eq56` proposed (default 0.9, as in 1D).
-    pub safety: f64,
-    /// Refresh when a particle moved this many cells on some axis (default 0.5).
-    pub refresh_cells: f64,
-    /// Refresh when the smallest active nodal mass fell by this much, relative (default 0.1).
-    pub refresh_mass: f64,
-    /// Refresh when some particle's moduli grew by this much, relative (default 0.1);
-    /// smaller growth scales the cached `λmax` instead (module docs). The scaling is a
-    /// bound, so this threshold trades steps up to 10 % smaller against Lanczos runs:
-    /// on the colliding spheres 0.05 refreshed 53 times (355 products) in 136 steps, 0.1
-    /// refreshes 33 times (237 products) in the same 136 steps, a 22 % shorter run.
-    pub refresh_modulus: f64,
-    /// Refresh when, after a nodal mass fell, the largest diagonal entry of `A` grew by
-    /// this much, relative (default 0.05); smaller growth scales the cached `λmax` by it —
-    /// a heuristic (the diagonal bounds `λmax` from below only), so kept tighter than
-    /// `refresh_modulus`.
-    pub refresh_diagonal: f64,
-    /// Refresh at least every this many proposals (default 200).
-    pub max_age: u32,
-    /// Lanczos tolerance (default 1e-2): residual below `tol·λ` or the value settled to
-    /// `tol·λ/10` in one iteration; the Ritz value is raised by this fraction.
-    pub tol: f64,
-    /// Lanczos products per refresh at most (default 40).
-    pub max_iter: usize,
-    /// Multiplier on the refreshed `λmax` bound (default 1.0).
-    pub margin: f64,
-    /// The scheme's velocity transfer (default [`TransferNd::Flip`], the paper's USL):
-    /// with [`TransferNd::Apic`] the limit is `√(2(1 + p)/λmax)`, `p` the transfer's
-    /// Rayleigh quotient on the tracked top mode (`limits_nd/transfer.rs`).
-    pub transfer: TransferNd,
-    /// Step on the element bound when it is within `1 + bound_slack` of the Lanczos value
-    /// (default 0.25; negative: never), [`super::bound_tracking`].
-    pub bound_slack: f64,
-    /// In bound mode, run Lanczos again after this many proposals (default 50).
-    pub bound_age: u32,
-    /// The cost of one Lanczos product in bare steps, for deciding when stepping on the
-    /// bound pays (default 0.5: a product gathers and scatters over the stencils once, a
-    /// step about twice; [`super::bound_tracking`]).
-    pub product_cost: f64,
-}
-
-impl Default for StabilityNdConfig {
-    fn default() -> Self {
-        Self {
-            safety: 0.9,
-            refresh_cells: 0.5,
-            refresh_mass: 0.1,
-            refresh_modulus: 0.1,
-            refresh_diagonal: 0.05,
-            max_age: 200,
-            tol: 1e-2,
-            max_iter: 40,
-            margin: 1.0,
-            transfer: TransferNd::Flip,
-            bound_slack: 0.25,
-            bound_age: 50,
-            product_cost: 0.5,
-        }
-    }
-}
 
 /// The tracked eq 56 limit in d dimensions (module docs).
 #[derive(Clone, Debug)]

@@ -1,0 +1,346 @@
+//! Capability: one controller config means the same in every dimension. A field that does
+//! not apply in the run's dimension is refused with an error naming it; every 2D/3D
+//! setting of the stability and growth limits is reachable from the JSON config and
+//! changes what a 2D run does.
+
+use mpm_dt::controller::{ConfigError, Controller, ControllerConfig, ControllerError, Decision};
+use mpm_dt::limits_nd::element_bound::element_bound;
+use mpm_dt::limits_nd::{standard_limits, STABILITY};
+use mpm_dt::nd::{GridNd, MaterialNd, ParticlesNd, ShapeNd, SolverNd, SummaryNd, Vector};
+use mpm_dt::reduce::SingleProcess;
+use mpm_dt::{Boundary, StepError, Stepper, ViewNd};
+
+/// `{"<outer>": {"<inner>": value}}` parsed and validated (no dimension yet).
+fn config(json: &str) -> ControllerConfig {
+    ControllerConfig::from_json(json).unwrap_or_else(|e| panic!("{json}: {e}"))
+}
+
+/// The field a dimension check refused, if it did.
+fn refused(result: Result<(), ControllerError>) -> Option<&'static str> {
+    match result {
+        Err(ControllerError::Config(ConfigError::NotInDimension { field, .. })) => Some(field),
+        Err(e) => panic!("unexpected error {e}"),
+        Ok(()) => None,
+    }
+}
+
+fn try_2d(c: ControllerConfig) -> Result<(), ControllerError> {
+    let limits = standard_limits::<2>(&c, Vector::<2>::zeros());
+    Controller::<2>::new(c, limits).map(|_| ())
+}
+
+fn try_3d(c: ControllerConfig) -> Result<(), ControllerError> {
+    let limits = standard_limits::<3>(&c, Vector::<3>::zeros());
+    Controller::<3>::new(c, limits).map(|_| ())
+}
+
+fn try_1d(c: ControllerConfig) -> Result<(), ControllerError> {
+    Controller::standard(c).map(|_| ())
+}
+
+const ONE_D_ONLY: [(&str, &str); 9] = [
+    (r#"{"stability": {"tol": 1e-5}}"#, "stability.tol"),
+    (
+        r#"{"stability": {"reading": "paper"}}"#,
+        "stability.reading",
+    ),
+    (
+        r#"{"stability": {"lanczos": {"max_iter": 30}}}"#,
+        "stability.lanczos",
+    ),
+    (
+        r#"{"stability": {"tracking": {"lanczos": {}}}}"#,
+        "stability.tracking",
+    ),
+    (
+        r#"{"stability": {"bound58_every": 3}}"#,
+        "stability.bound58_every",
+    ),
+    (r#"{"growth": {"indicator": "energy"}}"#, "growth.indicator"),
+    (r#"{"growth": {"factor": 2.0}}"#, "growth.factor"),
+    (r#"{"growth": {"floor": 1e-6}}"#, "growth.floor"),
+    (
+        r#"{"growth": {"energy_confirm": 0.0}}"#,
+        "growth.energy_confirm",
+    ),
+];
+
+const ND_ONLY: [(&str, &str); 13] = [
+    (
+        r#"{"stability_nd": {"refresh_cells": 0.05}}"#,
+        "stability_nd.refresh_cells",
+    ),
+    (
+        r#"{"stability_nd": {"refresh_mass": 1e-6}}"#,
+        "stability_nd.refresh_mass",
+    ),
+    (
+        r#"{"stability_nd": {"refresh_modulus": 1e-4}}"#,
+        "stability_nd.refresh_modulus",
+    ),
+    (
+        r#"{"stability_nd": {"refresh_diagonal": 1e-6}}"#,
+        "stability_nd.refresh_diagonal",
+    ),
+    (
+        r#"{"stability_nd": {"max_age": 1}}"#,
+        "stability_nd.max_age",
+    ),
+    (r#"{"stability_nd": {"tol": 0.2}}"#, "stability_nd.tol"),
+    (
+        r#"{"stability_nd": {"max_iter": 2}}"#,
+        "stability_nd.max_iter",
+    ),
+    (
+        r#"{"stability_nd": {"margin": 1.5}}"#,
+        "stability_nd.margin",
+    ),
+    (
+        r#"{"stability_nd": {"transfer": {"apic": {"inertia": 0.25}}}}"#,
+        "stability_nd.transfer",
+    ),
+    (
+        r#"{"stability_nd": {"bound_slack": 10.0}}"#,
+        "stability_nd.bound_slack",
+    ),
+    (
+        r#"{"stability_nd": {"bound_slack": 10.0, "bound_age": 1}}"#,
+        "stability_nd.bound_slack",
+    ),
+    (
+        r#"{"stability_nd": {"product_cost": 100.0}}"#,
+        "stability_nd.product_cost",
+    ),
+    (r#"{"growth": {"energy_tol": 0.01}}"#, "growth.energy_tol"),
+];
+
+#[test]
+fn one_d_settings_are_refused_in_2d_and_3d_and_accepted_in_1d() {
+    for (json, field) in ONE_D_ONLY {
+        assert_eq!(refused(try_2d(config(json))), Some(field), "{json} in 2D");
+        assert_eq!(refused(try_3d(config(json))), Some(field), "{json} in 3D");
+        assert_eq!(refused(try_1d(config(json))), None, "{json} in 1D");
+    }
+}
+
+#[test]
+fn two_and_three_d_settings_are_refused_in_1d_and_accepted_in_2d() {
+    for (json, field) in ND_ONLY {
+        assert_eq!(refused(try_1d(config(json))), Some(field), "{json} in 1D");
+        assert_eq!(refused(try_2d(config(json))), None, "{json} in 2D");
+        assert_eq!(refused(try_3d(config(json))), None, "{json} in 3D");
+    }
+}
+
+#[test]
+fn the_shared_safety_is_not_a_stability_nd_field_and_a_contradicting_one_is_refused() {
+    let err = ControllerConfig::from_json(r#"{"stability_nd": {"safety": 0.5}}"#).unwrap_err();
+    assert!(err.to_string().contains("safety"), "{err}");
+    let mut c = ControllerConfig::default();
+    c.stability_nd.safety = 0.5;
+    match try_2d(c) {
+        Err(ControllerError::Config(ConfigError::Inconsistent { field, .. })) => {
+            assert_eq!(field, "stability_nd.safety")
+        }
+        other => panic!("expected a contradiction, got {other:?}"),
+    }
+}
+
+#[test]
+fn out_of_range_stability_nd_fields_name_their_path() {
+    for (json, field) in [
+        (
+            r#"{"stability_nd": {"refresh_cells": 0}}"#,
+            "stability_nd.refresh_cells",
+        ),
+        (r#"{"stability_nd": {"tol": 1.5}}"#, "stability_nd.tol"),
+        (
+            r#"{"stability_nd": {"max_iter": 1}}"#,
+            "stability_nd.max_iter",
+        ),
+        (r#"{"growth": {"energy_tol": -1}}"#, "growth.energy_tol"),
+    ] {
+        match ControllerConfig::from_json(json) {
+            Err(ConfigError::OutOfRange { field: f, .. }) => assert_eq!(f, field, "{json}"),
+            other => panic!("{json}: expected out of range, got {other:?}"),
+        }
+    }
+}
+
+/// A jittered, neo-Hookean GIMP block moving fast across a periodic grid (the motion
+/// guard, the moduli and the nodal masses all change), as the reference solver or
+/// opting in with the element bound from its "own pass" (the library's function).
+struct Block {
+    solver: SolverNd<2>,
+    opt_in: bool,
+}
+
+impl Block {
+    fn new(opt_in: bool) -> Self {
+        let grid = GridNd::<2>::new([Boundary::Periodic; 2], [8, 8], [1.0, 1.0]);
+        let material = MaterialNd::NeoHookean {
+            youngs_modulus: 1.0,
+            poisson_ratio: 0.3,
+        };
+        let mut particles = ParticlesNd::uniform(&grid, [2, 2], 1.0, material);
+        let mut s: u64 = 7;
+        let mut next = move || {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        for p in 0..particles.len() {
+            let x = particles.x[p];
+            for a in 0..2 {
+                particles.x[p][a] += 0.3 * particles.domain[p][a] * next();
+            }
+            particles.v[p][0] = 0.2 + 0.1 * (2.0 * std::f64::consts::PI * x[1]).sin();
+            particles.v[p][1] = 0.1 * (2.0 * std::f64::consts::PI * x[0]).sin();
+        }
+        let solver = SolverNd::new(grid, ShapeNd::Gimp, particles, Vector::<2>::zeros()).unwrap();
+        Self { solver, opt_in }
+    }
+
+    fn with_bound<'a>(&self, view: ViewNd<'a, 2>) -> ViewNd<'a, 2> {
+        if !self.opt_in {
+            return view;
+        }
+        let bound = element_bound(&view, &SingleProcess).lambda;
+        ViewNd {
+            summary: view.summary.map(|s| SummaryNd {
+                element_bound: Some(bound),
+                ..s
+            }),
+            ..view
+        }
+    }
+}
+
+impl Stepper<2> for Block {
+    fn time(&self) -> f64 {
+        self.solver.time()
+    }
+    fn step_count(&self) -> u64 {
+        self.solver.step_count()
+    }
+    fn try_step(&mut self, dt: f64) -> Result<(), StepError> {
+        self.solver.try_step(dt)
+    }
+    fn accept(&mut self) -> Result<(), StepError> {
+        self.solver.accept()
+    }
+    fn reject(&mut self) {
+        self.solver.reject()
+    }
+    fn view(&self) -> ViewNd<'_, 2> {
+        self.with_bound(self.solver.view())
+    }
+    fn trial_view(&self) -> Option<ViewNd<'_, 2>> {
+        self.solver.trial_view().map(|v| self.with_bound(v))
+    }
+    fn provide_summary(&mut self, on: bool) -> bool {
+        self.solver.provide_summary(on)
+    }
+}
+
+/// What a controlled run of the block did: every decision's step, outcome and the
+/// stability limit's numbers (λmax, refreshes, Lanczos products, bound proposals).
+fn run(c: &ControllerConfig, opt_in: bool, t_end: f64) -> Vec<String> {
+    let limits = standard_limits::<2>(c, Vector::<2>::zeros());
+    let mut controller = Controller::<2>::new(c.clone(), limits).unwrap();
+    let mut block = Block::new(opt_in);
+    let mut log = Vec::new();
+    let mut record = |d: &Decision| {
+        let stability: Vec<String> = d
+            .limits
+            .iter()
+            .filter(|l| l.name == STABILITY)
+            .flat_map(|l| l.metrics.iter().map(|(k, v)| format!("{k}={v:e}")))
+            .collect();
+        log.push(format!(
+            "{:?} {:e} {}",
+            d.outcome,
+            d.dt,
+            stability.join(",")
+        ));
+    };
+    match controller.run_until(&mut block, t_end, &mut record) {
+        Ok(_) | Err(ControllerError::GrowthPersists { .. }) => {}
+        Err(e) => panic!("run failed: {e}"),
+    }
+    log
+}
+
+/// Each 2D/3D stability setting, set against a config where it is consulted: the mass and
+/// diagonal settings act between the motion guard's refreshes, the bound's age in bound
+/// mode, the cost model where the stepper supplies the bound.
+const STABILITY_CHANGES: [(&str, &str); 12] = [
+    (r#"{"refresh_cells": 0.05}"#, "{}"),
+    (r#"{"refresh_mass": 1e-6}"#, "{}"),
+    (r#"{"refresh_modulus": 1e-4}"#, "{}"),
+    (
+        r#"{"refresh_mass": 1e-6, "refresh_diagonal": 1e-6}"#,
+        r#"{"refresh_mass": 1e-6}"#,
+    ),
+    (r#"{"max_age": 1}"#, "{}"),
+    (r#"{"tol": 0.2}"#, "{}"),
+    (r#"{"max_iter": 2}"#, "{}"),
+    (r#"{"margin": 1.5}"#, "{}"),
+    (r#"{"transfer": {"apic": {"inertia": 0.25}}}"#, "{}"),
+    (r#"{"bound_slack": 10.0}"#, "{}"),
+    (
+        r#"{"bound_slack": 10.0, "bound_age": 1}"#,
+        r#"{"bound_slack": 10.0}"#,
+    ),
+    (r#"{"product_cost": 0.0}"#, "{}"),
+];
+
+#[test]
+fn every_stability_nd_setting_changes_a_2d_run() {
+    let nd = |fields: &str| config(&format!(r#"{{"stability_nd": {fields}}}"#));
+    for (changed, base) in STABILITY_CHANGES {
+        // The cost model weighs Lanczos against a bound the stepper supplies.
+        // (0 switches it off; the default steps on this block's bound, `B/λ` 3.8–4.1.)
+        let opt_in = changed.contains("product_cost");
+        let reference = run(&nd(base), opt_in, 2.0);
+        assert!(
+            reference.len() > 20,
+            "too short a run to tell: {}",
+            reference.len()
+        );
+        assert_ne!(
+            run(&nd(changed), opt_in, 2.0),
+            reference,
+            "{changed} changed nothing against {base}"
+        );
+    }
+}
+
+/// The 2D/3D growth settings change when growth is detected: a run without the stability
+/// limit at 1.7 times the sound-speed step (about 1.2 times the frozen-particle critical
+/// step) grows, and the monitor's window, span, tolerance and safety factor move the
+/// detections.
+#[test]
+fn every_growth_setting_changes_a_2d_run() {
+    let unstable =
+        r#""stability": null, "sound_speed": {"alpha": 1.7}, "temporal": {"enabled": false}"#;
+    let with = |growth: &str| config(&format!(r#"{{{unstable}, "growth": {growth}}}"#));
+    for (changed, base) in [
+        (r#"{"window": 5}"#, "{}"),
+        (r#"{"windows": 2}"#, "{}"),
+        (r#"{"energy_tol": 5.0}"#, "{}"),
+        (r#"{"safety_factor": 0.5}"#, "{}"),
+    ] {
+        let reference = run(&with(base), false, 20.0);
+        assert!(
+            reference.iter().any(|d| d.starts_with("Rejected")),
+            "no growth detected with {base}: the comparison would be vacuous"
+        );
+        assert_ne!(
+            run(&with(changed), false, 20.0),
+            reference,
+            "growth {changed} changed nothing against {base}"
+        );
+    }
+}
