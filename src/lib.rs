@@ -48,6 +48,33 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 //!
+//! ## Both dimensions at a glance
+//!
+//! The controller, the [`Stepper`] and [`StepLimit`] traits and the config are generic over
+//! the dimension `D` ([`Dimension`]: `Dim<1>`'s view is [`View`], `Dim<2>`'s and `Dim<3>`'s
+//! is [`ViewNd`]); the limits and the reference solvers are written per dimension:
+//!
+//! | part | 1D | 2D and 3D |
+//! |---|---|---|
+//! | state a limit reads | [`View`] (`S`, `D` matrices, [`weights`]) | [`ViewNd`] ([`nd::WeightsNd`], optional [`nd::SummaryNd`] from the stepper's pass) |
+//! | sound speed (eq 49) | [`stability::SoundSpeed`] | [`limits_nd::SoundSpeedNd`] |
+//! | stability (eq 56) | [`stability::Stability`]: certified tracker, eq 58 | [`limits_nd::StabilityNd`]: Lanczos with a motion guard, the element bound |
+//! | temporal error (eqs 20–30) | [`controller::TemporalError`] | [`limits_nd::TemporalErrorNd`] |
+//! | growth monitor | [`controller::GrowthMonitor`] (checkerboard share) | [`limits_nd::GrowthNd`] (energy) |
+//! | the standard limits | [`controller::Controller::standard`] | [`limits_nd::standard_limits`] + [`controller::Controller::new`] |
+//! | reference solver | [`mpm::ReferenceStepper`] | [`nd::SolverNd`] |
+//! | scenarios, exact problems | [`scenario`], [`problems`] | [`nd::scenario`], [`nd::problems`] |
+//! | spatial error estimators (eqs 31–44) | [`estimators`] | — |
+//!
+//! One [`controller::ControllerConfig`] serves every dimension; a setting that applies in
+//! one dimension only is refused in the others ([`controller::config_dims`]).
+//!
+//! ## Features
+//!
+//! * `mpi` — global reductions over MPI ranks ([`reduce`], rsmpi): a run split over
+//!   processes by particle or by grid slab takes the same steps on every rank. Needs an MPI
+//!   library (OpenMPI) and libclang.
+//!
 //! The library logs through `tracing` and never installs a subscriber.
 
 pub mod controller;

@@ -47,7 +47,7 @@
 mod attempt;
 mod checkpoint;
 mod config;
-mod config_dims;
+pub mod config_dims;
 mod decision;
 pub mod deferral;
 mod door;
