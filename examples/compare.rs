@@ -41,8 +41,8 @@
 //! criteria of the stability module's empirical protocol ([`mpm_dt::stability::Protocol`]).
 //! For `mpm-dt` a controller error (e.g. too many rejections) also counts as a blow-up.
 //!
-//! Reported per policy: `policy, steps, rejected, blew_up, final_time, velocity_error_linf,
-//! velocity_error_linf_raw, closing_half_step, energy_drift, wall_seconds, wall_seconds_runs,
+//! Reported per policy: `policy, steps, rejected, blew_up, t_final, velocity_error_linf,
+//! velocity_error_linf_raw, closing_half_step, energy_drift, wall_s, wall_s_runs,
 //! dt_mean`:
 //! - `velocity_error_linf = max_p |v_sync,p − v_exact(X_p, t_final)|` (the ∞-norm over
 //!   particles, `X_p` the particle's initial position) against the scenario's standing-wave
@@ -58,10 +58,10 @@
 //! - `velocity_error_linf_raw`: the same norm for the particle velocity `v_p` itself, with
 //!   its half-step lag (what `velocity_error_linf` was before the synchronisation).
 //! - `energy_drift = (E_final − E_0)/E_0`, `E = kinetic + strain energy` (relative).
-//! - `dt_mean = final_time / steps` (accepted steps).
+//! - `dt_mean = t_final / steps` (accepted steps).
 //!
 //! `--repeat N` times every policy's run `N` times (default 1), interleaved (mpm-dt first in
-//! every other repeat); `wall_seconds` is then the median of `wall_seconds_runs`, and the
+//! every other repeat); `wall_s` is then the median of `wall_s_runs`, and the
 //! JSON's `wall_ratio_of_pairs` (a list of `{against, range}`; in 2D/3D a
 //! `wall_ratio_of_pairs` beside each `wall_ratio` entry, and `wall_s`/`wall_s_runs` per
 //! policy) and a line per rule in the table give the range of the ratios within each
@@ -112,7 +112,7 @@ struct PolicyResult {
     blew_up: bool,
     /// Why the run blew up, if it did.
     failure: Option<String>,
-    final_time: f64,
+    t_final: f64,
     /// Error of the synchronised velocity (module docs).
     velocity_error_linf: Option<f64>,
     /// Error of the raw particle velocity.
@@ -120,10 +120,10 @@ struct PolicyResult {
     /// The closing half step `ℓ` of the synchronisation.
     closing_half_step: f64,
     energy_drift: Option<f64>,
-    /// Wall time to the end: the median of `wall_seconds_runs`.
-    wall_seconds: f64,
+    /// Wall time to the end: the median of `wall_s_runs`.
+    wall_s: f64,
     /// Every timed run of this policy (`--repeat`; one without it).
-    wall_seconds_runs: Vec<f64>,
+    wall_s_runs: Vec<f64>,
     dt_mean: Option<f64>,
 }
 
@@ -164,7 +164,7 @@ impl Reference<'_> {
         half_step: f64,
         rejected: u64,
         failure: Option<String>,
-        wall_seconds: f64,
+        wall_s: f64,
     ) -> PolicyResult {
         let t = stepper.time();
         let steps = stepper.step_count();
@@ -181,13 +181,13 @@ impl Reference<'_> {
             rejected,
             blew_up: failure.is_some(),
             failure,
-            final_time: t,
+            t_final: t,
             velocity_error_linf,
             velocity_error_linf_raw,
             closing_half_step: half_step,
             energy_drift: drift.is_finite().then_some(drift),
-            wall_seconds,
-            wall_seconds_runs: vec![wall_seconds],
+            wall_s,
+            wall_s_runs: vec![wall_s],
             dt_mean: (steps > 0).then(|| t / steps as f64),
         }
     }
@@ -365,13 +365,13 @@ fn main() -> ExitCode {
     // An mpm-dt run that blew up is not repeated (and has no wall ratio, `report::ratios`).
     let reached = results.last().is_some_and(|r| !r.blew_up);
     let repeat = if reached { args.repeat } else { 1 };
-    let mut walls: Vec<Vec<f64>> = results.iter().map(|r| vec![r.wall_seconds]).collect();
+    let mut walls: Vec<Vec<f64>> = results.iter().map(|r| vec![r.wall_s]).collect();
     let timed = common::repeats::more_rounds(&mut walls, repeat, |i| {
         match args.alphas.get(i) {
             Some(&alpha) => run_fixed(&scenario, &reference, alpha),
             None => run_controller(&scenario, &reference, tracking),
         }
-        .map(|r| r.wall_seconds)
+        .map(|r| r.wall_s)
         .map_err(|e| format!("{}: {e}", results[i].policy))
     });
     if let Err(e) = timed {
@@ -379,20 +379,20 @@ fn main() -> ExitCode {
         return ExitCode::from(1);
     }
     for (r, w) in results.iter_mut().zip(walls) {
-        r.wall_seconds_runs = w;
+        r.wall_s_runs = w;
     }
     for r in &mut results {
-        r.wall_seconds = common::repeats::median(&r.wall_seconds_runs);
+        r.wall_s = common::repeats::median(&r.wall_s_runs);
     }
     let ours_runs = results
         .last()
-        .map(|r| r.wall_seconds_runs.clone())
+        .map(|r| r.wall_s_runs.clone())
         .unwrap_or_default();
     let pair_ranges: Vec<(String, [f64; 2])> = results
         .iter()
         .filter(|r| r.policy != "mpm-dt" && !r.blew_up && reached && repeat > 1)
         .map(|r| {
-            let range = common::repeats::ratio_range(&ours_runs, &r.wall_seconds_runs);
+            let range = common::repeats::ratio_range(&ours_runs, &r.wall_s_runs);
             (r.policy.clone(), range)
         })
         .collect();

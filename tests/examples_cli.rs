@@ -294,15 +294,15 @@ fn compare_repeat_times_every_policy_and_reports_medians() {
     let policies = v["policies"].as_array().expect("policies");
     assert_eq!(policies.len(), 3, "two rules and mpm-dt");
     for p in policies {
-        let mut runs: Vec<f64> = p["wall_seconds_runs"]
+        let mut runs: Vec<f64> = p["wall_s_runs"]
             .as_array()
-            .expect("wall_seconds_runs")
+            .expect("wall_s_runs")
             .iter()
             .map(|x| x.as_f64().unwrap())
             .collect();
         assert_eq!(runs.len(), 3, "{}", p["policy"]);
         runs.sort_by(f64::total_cmp);
-        assert_eq!(p["wall_seconds"].as_f64(), Some(runs[1]), "the median");
+        assert_eq!(p["wall_s"].as_f64(), Some(runs[1]), "the median");
     }
     let pairs = v["wall_ratio_of_pairs"].as_array().expect("ranges");
     assert_eq!(pairs.len(), 2);

@@ -55,7 +55,7 @@ pub(crate) fn ratios(results: &[PolicyResult]) -> Vec<Ratio> {
                 // Against a rule that blew up, or when mpm-dt did, there is no time to the
                 // end to compare: `None`.
                 wall_ratio: (!r.blew_up && !ours.blew_up)
-                    .then(|| ratio(Some(ours.wall_seconds), Some(r.wall_seconds)))
+                    .then(|| ratio(Some(ours.wall_s), Some(r.wall_s)))
                     .flatten(),
             })
         })
@@ -82,7 +82,7 @@ pub(crate) fn print_table(
         "steps",
         "rejected",
         "blew_up",
-        "final_time",
+        "t_final",
         "v_err_linf",
         "v_err_raw",
         "energy_drift",
@@ -96,11 +96,11 @@ pub(crate) fn print_table(
             r.steps,
             r.rejected,
             if r.blew_up { "YES" } else { "no" },
-            r.final_time,
+            r.t_final,
             opt(r.velocity_error_linf, 12),
             opt(r.velocity_error_linf_raw, 12),
             opt(r.energy_drift, 12),
-            r.wall_seconds,
+            r.wall_s,
             opt(r.dt_mean, 10),
         );
         if let Some(f) = &r.failure {
