@@ -25,7 +25,11 @@
 //!   `σ = 0`, where eq 58 has no information);
 //! * `dt_empirical` — bisection on real runs (initial `v = A c sin(2πx/L)` + noise
 //!   `10⁻⁶ A c`, `σ = 0`, `F = 1`, 4000 steps, unstable when the energy exceeds 10× its start,
-//!   a value is not finite or some `F ≤ 0`), `A = --amplitude` (default `10⁻⁴`).
+//!   a value is not finite or some `F ≤ 0`), `A = --amplitude` (default `10⁻⁴`);
+//! * `dt_empirical_scan` — `{tried: [[dt, stable], …], unstable_below_stable: [dt, …]}`:
+//!   33 more runs at equally spaced steps in `[0.7, 1.3]·dt_empirical`, and the steps that
+//!   blew up below a larger step that did not (empty where stability is monotone in `dt`;
+//!   where it is not, the bisection's answer depends on its bracket).
 //!
 //! Above 10 000 particles `bound58` and `dt_empirical` are `null` and `skipped` says why:
 //! their runs cost particles × steps, and the tool answers in seconds on any scenario;
@@ -43,7 +47,7 @@ use mpm_dt::scenario::Scenario;
 use mpm_dt::stability::operator::spectral_norm;
 use mpm_dt::stability::{
     bound58, Bound58Reading, EmpiricalConfig, EmpiricalCritical, Eq56Operator, FullMap,
-    FullMapConfig, LambdaMaxTracker, LanczosConfig, Protocol, SoundSpeed, Stability,
+    FullMapConfig, LambdaMaxTracker, LanczosConfig, MonotoneScan, Protocol, SoundSpeed, Stability,
 };
 use mpm_dt::{StepLimit, Stepper};
 use serde_json::{json, Value};
@@ -111,7 +115,10 @@ where
     mpm_dt::Dim<D>: for<'a> mpm_dt::Dimension<View<'a> = mpm_dt::ViewNd<'a, D>>,
 {
     let (solver, _) = scenario.build::<D>()?;
-    let table = critical::critical_table(&solver, Some((amplitude, 4000)));
+    let mut table = critical::critical_table(&solver, Some((amplitude, 4000)));
+    table.dt_empirical_scan = table
+        .dt_empirical
+        .map(|dt| critical::empirical_scan(&solver, amplitude, 4000, dt));
     let config = scenario.controller_config()?;
     let gravity = mpm_dt::nd::Vector::<D>::zeros();
     let view = solver.view();
@@ -303,11 +310,13 @@ fn run(args: &Args) -> Result<Value, Box<dyn std::error::Error>> {
             small,
         )?)
     };
-    let (bound, emp) = runs.unzip();
+    let (bound, emp_scan) = runs.unzip();
+    let (emp, scan) = emp_scan.unzip();
     table["bound58"] = json!(bound);
     table["dt_empirical"] = json!(emp.map(|e| e.dt()));
     table["dt_empirical_bracket"] = json!(emp.map(|e| [e.dt_stable, e.dt_unstable]));
     table["empirical_runs"] = json!(emp.map_or(0, |e| e.runs));
+    table["dt_empirical_scan"] = json!(scan);
     table["ratios_to_h_over_c"] = json!({
         "eq56": ratio_eq56,
         "full_map": ratio_full,
@@ -319,6 +328,9 @@ fn run(args: &Args) -> Result<Value, Box<dyn std::error::Error>> {
     Ok(table)
 }
 
+/// The eq 58 rows, the bisection and the monotonicity scan around its answer.
+type RealRuns = (Vec<Value>, (EmpiricalCritical, MonotoneScan));
+
 /// The real runs of a 1D table: eq 58 (both readings, and the dense `‖A‖₂` and `ρ(A)` on
 /// small layouts) on the state a quarter period into a stable run, at multiples of
 /// `dt_eq56`, and the empirical bisection. `steps` are `(dt_eq49, dt_eq56, c)`, `c` the wave speed.
@@ -329,7 +341,7 @@ fn real_runs(
     protocol: &Protocol,
     (dt_eq49, dt_eq56, c): (f64, f64, f64),
     small: bool,
-) -> Result<(Vec<Value>, EmpiricalCritical), Box<dyn std::error::Error>> {
+) -> Result<RealRuns, Box<dyn std::error::Error>> {
     // eq 58 on the state a quarter period into a stable run.
     let mut s = mpm_dt::mpm::ReferenceStepper::new(
         grid.clone(),
@@ -375,7 +387,8 @@ fn real_runs(
 
     let emp = protocol.critical_dt(0.5 * dt_eq49, 1.5 * dt_eq49)?;
     tracing::info!(?emp, "empirical");
-    Ok((bound, emp))
+    let scan = protocol.scan(emp.dt())?;
+    Ok((bound, (emp, scan)))
 }
 
 fn main() -> ExitCode {

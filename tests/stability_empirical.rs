@@ -138,3 +138,29 @@ fn fixed_ends_gimp() {
         uniform(16, 1.0, 2),
     );
 }
+
+/// The monotonicity scan reports exactly the unstable steps below a larger stable one.
+#[test]
+fn the_scan_names_unstable_steps_below_a_stable_one() {
+    use mpm_dt::stability::{scan_monotone, SCAN_POINTS};
+    // Stable up to 1, except a window [0.8, 0.85): a light node's resonance, say.
+    let stable = |dt: f64| Ok::<_, ()>(dt <= 1.0 && !(0.8..0.85).contains(&dt));
+    let scan = scan_monotone(1.0, stable).unwrap();
+    assert_eq!(scan.tried.len(), 2 * SCAN_POINTS + 1);
+    let expected: Vec<f64> = scan
+        .tried
+        .iter()
+        .map(|&(dt, _)| dt)
+        .filter(|dt| (0.8..0.85).contains(dt))
+        .collect();
+    assert!(
+        !expected.is_empty(),
+        "the window falls between the scan's steps"
+    );
+    assert_eq!(scan.unstable_below_stable, expected);
+    assert!(!scan.is_monotone());
+    // A monotone limit: nothing reported, steps above it unstable.
+    let scan = scan_monotone(1.0, |dt| Ok::<_, ()>(dt <= 1.1)).unwrap();
+    assert!(scan.is_monotone());
+    assert!(scan.tried.iter().any(|&(dt, s)| dt > 1.1 && !s));
+}

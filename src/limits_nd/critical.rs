@@ -48,6 +48,10 @@ pub struct CriticalTable {
     pub dt_full_map: Option<f64>,
     /// Bisection on real runs, if asked for.
     pub dt_empirical: Option<f64>,
+    /// Real runs at steps around `dt_empirical` ([`empirical_scan`], filled in by the
+    /// caller who wants them: 33 runs more): where stability is not monotone in `dt`, one
+    /// bisection's answer depends on its bracket, and this says where.
+    pub dt_empirical_scan: Option<crate::stability::MonotoneScan>,
 }
 
 /// `λmax(M⁻¹K)` of a view by Lanczos to a relative residual of `1e-10`, from the
@@ -86,6 +90,13 @@ where
     let dense = (alone && view.n_nodes() * D <= DENSE_LIMIT)
         .then(|| dense_lambda_max(&view))
         .flatten();
+    let runs =
+        empirical.filter(|_| alone && view.n_particles() * view.weights.width() <= EMPIRICAL_LIMIT);
+    // The true limit is a few per cent above dt_eq56 on GIMP and linear layouts
+    // (docs/design.md); the bracket widens itself when it is not.
+    let guess = (2.0 / lambda).sqrt();
+    let dt_empirical =
+        runs.map(|(a, steps)| empirical_critical(solver, a, steps, 0.95 * guess, 1.25 * guess, 9));
     CriticalTable {
         cell_size: view.grid.h.to_vec(),
         c_p,
@@ -97,14 +108,27 @@ where
             .then(|| super::full_map::critical_dt(&view, (2.0 / lambda).sqrt()))
             .flatten()
             .and_then(Result::ok),
-        dt_empirical: empirical
-            .filter(|_| alone && view.n_particles() * view.weights.width() <= EMPIRICAL_LIMIT)
-            .map(|(a, steps)| {
-                // The true limit is a few per cent above dt_eq56 on GIMP and linear layouts
-                // (docs/design.md); the bracket widens itself when it is not.
-                let guess = (2.0 / lambda).sqrt();
-                empirical_critical(solver, a, steps, 0.95 * guess, 1.25 * guess, 9)
-            }),
+        dt_empirical,
+        dt_empirical_scan: None,
+    }
+}
+
+/// [`crate::stability::scan_monotone`] with real runs of `steps` steps at amplitude
+/// `amplitude` ([`blows_up`]) around `center`.
+pub fn empirical_scan<const D: usize>(
+    template: &SolverNd<D>,
+    amplitude: f64,
+    steps: usize,
+    center: f64,
+) -> crate::stability::MonotoneScan
+where
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+{
+    let stable =
+        |dt: f64| Ok::<bool, std::convert::Infallible>(!blows_up(template, amplitude, steps, dt));
+    match crate::stability::scan_monotone(center, stable) {
+        Ok(scan) => scan,
+        Err(never) => match never {},
     }
 }
 

@@ -85,7 +85,10 @@ pub use lambda_max::{
 pub use nodal::NodalOperator;
 
 pub use bound58::{bound58, Bound58, Bound58Reading};
-pub use empirical::{EmpiricalConfig, EmpiricalCritical, Protocol, RunOutcome};
+pub use empirical::{
+    scan_monotone, EmpiricalConfig, EmpiricalCritical, MonotoneScan, Protocol, RunOutcome,
+    SCAN_POINTS,
+};
 pub use limit::{Refresh, Stability, StabilityConfig, Tracking};
 pub use operator::Eq56Operator;
 pub use sound_speed::{SoundSpeed, SoundSpeedConfig};
