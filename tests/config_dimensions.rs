@@ -344,3 +344,24 @@ fn every_growth_setting_changes_a_2d_run() {
         );
     }
 }
+
+/// A 2D scenario file whose controller object sets a 1D-only field is refused when read,
+/// naming the field.
+#[test]
+fn a_2d_scenario_with_a_1d_setting_is_refused_naming_it() {
+    use mpm_dt::nd::scenario::ScenarioNd;
+    let text = r#"{"dim": 2, "cells": [8, 8], "t_end": 0.1,
+                   "controller": {"stability": {"bound58_every": 3}}}"#;
+    let err = ScenarioNd::from_json(text)
+        .and_then(|s| s.controller_config())
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("stability.bound58_every"), "{err}");
+    let fine = r#"{"dim": 2, "cells": [8, 8], "t_end": 0.1,
+                   "controller": {"stability_nd": {"refresh_cells": 0.25}}}"#;
+    let c = ScenarioNd::from_json(fine)
+        .unwrap()
+        .controller_config()
+        .unwrap();
+    assert_eq!(c.stability_nd.refresh_cells, 0.25);
+}

@@ -313,11 +313,14 @@ impl ScenarioNd {
         }
     }
 
-    /// The controller configuration (`controller`, or the defaults).
+    /// The controller configuration (`controller`, or the defaults), checked for the
+    /// scenario's dimension ([`ControllerConfig::validate_for`]: a 1D-only setting is an
+    /// error naming it).
     pub fn controller_config(&self) -> Result<ControllerConfig, ScenarioNdError> {
         match &self.controller {
             None | Some(serde_json::Value::Null) => Ok(ControllerConfig::default()),
             Some(v) => ControllerConfig::from_value(v.clone())
+                .and_then(|c| c.validate_for(self.dim).map(|()| c))
                 .map_err(|e| invalid("controller", e.to_string())),
         }
     }
