@@ -363,5 +363,5 @@ fn a_2d_scenario_with_a_1d_setting_is_refused_naming_it() {
         .unwrap()
         .controller_config()
         .unwrap();
-    assert_eq!(c.stability_nd.refresh_cells, 0.25);
+    assert_eq!(c.stability_nd.refresh_cells.to_bits(), 0.25f64.to_bits());
 }
