@@ -30,7 +30,7 @@
 //! `--json` prints one JSON document on stdout: `scene`, `particles`, `scales`,
 //! `reference` (`alpha`, `steps`, `reference_change`, `reference_converged`), `points`
 //! (`policy`, `steps`, `rejected`, `failure`, `wall_s`, `wall_s_runs`, `errors`:
-//! `position`, `velocity`, `energy`), `fixed_time_to_match` (per controller point and
+//! `position`, `velocity`, `energy`; `energy_change` = `(E − E₀)/E₀` at the end), `fixed_time_to_match` (per controller point and
 //! measure, the wall time of the fixed-rule curve at the controller's error, interpolated
 //! log–log between adjacent rules, over the controller's wall time; `null` when no rule's
 //! error brackets it) and `load` (`/proc/loadavg` before and after). `--plot` draws the

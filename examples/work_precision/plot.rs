@@ -1,7 +1,7 @@
 //! The work–precision diagram (SVG): one panel per error measure, x = wall time (median of
 //! the repeats), y = the error against the converged-step reference, both logarithmic; the
 //! fixed rules as a grey line of squares labelled by `α`, the controller's tolerances as a
-//! green line of circles labelled by the tolerance, its default as a filled star.
+//! green line of circles labelled by the tolerance, its default as a filled triangle.
 
 use super::measure::Errors;
 use plotters::coord::Shift;
@@ -34,31 +34,35 @@ fn series(
     chart: &mut Chart<'_, '_>,
     pts: &[(f64, f64, String, bool)],
     c: RGBColor,
-    squares: bool,
+    legend: &str,
 ) -> Result<(), Box<dyn std::error::Error>> {
+    let squares = legend.starts_with("fixed");
     let line: Vec<(f64, f64)> = pts.iter().map(|p| (p.0, p.1)).collect();
-    chart.draw_series(LineSeries::new(line, c.stroke_width(2)))?;
+    chart
+        .draw_series(LineSeries::new(line, c.stroke_width(2)))?
+        .label(legend)
+        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
     for (x, y, label, filled) in pts {
         let style = if *filled {
             c.filled()
         } else {
             c.stroke_width(2)
         };
+        let at = EmptyElement::at((*x, *y));
         if squares {
-            chart.draw_series(std::iter::once(Rectangle::new(
-                [(*x / 1.06, *y / 1.12), (*x * 1.06, *y * 1.12)],
-                style,
-            )))?;
+            chart.draw_series(std::iter::once(
+                at + Rectangle::new([(-4, -4), (4, 4)], style),
+            ))?;
         } else if *filled {
-            chart.draw_series(std::iter::once(TriangleMarker::new((*x, *y), 9, style)))?;
+            chart.draw_series(std::iter::once(at + TriangleMarker::new((0, 0), 9, style)))?;
         } else {
-            chart.draw_series(std::iter::once(Circle::new((*x, *y), 5, style)))?;
+            chart.draw_series(std::iter::once(at + Circle::new((0, 0), 5, style)))?;
         }
-        chart.draw_series(std::iter::once(Text::new(
-            label.clone(),
-            (*x * 1.08, *y),
-            ("sans-serif", 13).into_font().color(&c),
-        )))?;
+        let text = ("sans-serif", 12).into_font().color(&c);
+        chart.draw_series(std::iter::once(
+            EmptyElement::at((*x, *y))
+                + Text::new(label.clone(), (7, if squares { -14 } else { 4 }), text),
+        ))?;
     }
     Ok(())
 }
@@ -84,7 +88,7 @@ fn panel(
         .x_desc("wall time (s)")
         .y_desc(format!("{name} error (relative)"))
         .x_label_formatter(&|x| format!("{x:.2e}"))
-        .y_label_formatter(&|y| format!("{y:.0e}"))
+        .y_label_formatter(&|y| format!("{y:.1e}"))
         .label_style(("sans-serif", 12))
         .light_line_style(RGBColor(235, 235, 235))
         .draw()?;
@@ -96,10 +100,27 @@ fn panel(
             .map(|p| (p.wall_s, err(p), p.label.clone(), p.default))
             .collect()
     };
-    series(&mut chart, &pick(false), RGBColor(110, 110, 110), true)?;
+    series(
+        &mut chart,
+        &pick(false),
+        RGBColor(110, 110, 110),
+        "fixed rule (α)",
+    )?;
     let mut ours = pick(true);
     ours.sort_by(|a, b| a.0.total_cmp(&b.0));
-    series(&mut chart, &ours, RGBColor(30, 140, 50), false)?;
+    series(
+        &mut chart,
+        &ours,
+        RGBColor(30, 140, 50),
+        "mpm-dt (tolerance; ▲ default)",
+    )?;
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .label_font(("sans-serif", 13))
+        .border_style(BLACK)
+        .background_style(WHITE.mix(0.9))
+        .draw()?;
     Ok(())
 }
 

@@ -19,6 +19,8 @@ pub struct PointRow {
     pub wall_s: f64,
     pub wall_s_runs: Vec<f64>,
     pub errors: Option<Errors>,
+    /// `(E − E₀)/E₀` at the end (the energy the run gained, negative when it lost).
+    pub energy_change: f64,
     #[serde(skip)]
     kind: Policy,
 }
@@ -122,6 +124,7 @@ pub fn diagram(
             rejected: end.rejected,
             wall_s: end.wall_s,
             wall_s_runs: vec![end.wall_s],
+            energy_change: (end.energy - s.energy) / s.energy,
             failure: end.failure,
             errors,
             kind: p,
@@ -226,8 +229,8 @@ impl Doc {
             r.reference_converged
         );
         println!(
-            "{:<20} {:>6} {:>4} {:>9} {:>10} {:>10} {:>10}",
-            "policy", "steps", "rej", "wall_s", "e_x", "e_v", "e_E"
+            "{:<20} {:>6} {:>4} {:>9} {:>10} {:>10} {:>10} {:>9}",
+            "policy", "steps", "rej", "wall_s", "e_x", "e_v", "e_E", "ΔE/E₀"
         );
         for p in &self.points {
             let e = p.errors.map_or("blew up".to_string(), |e| {
@@ -237,8 +240,8 @@ impl Doc {
                 )
             });
             println!(
-                "{:<20} {:>6} {:>4} {:>9.4} {e}",
-                p.policy, p.steps, p.rejected, p.wall_s
+                "{:<20} {:>6} {:>4} {:>9.4} {e} {:>+9.4}",
+                p.policy, p.steps, p.rejected, p.wall_s, p.energy_change
             );
         }
         let f = |x: Option<f64>| x.map_or("-".to_string(), |x| format!("{x:.2}"));
