@@ -85,6 +85,8 @@ fn panel(
         .build_cartesian_2d(xr.log_scale(), yr.log_scale())?;
     chart
         .configure_mesh()
+        .x_labels(6)
+        .y_labels(8)
         .x_desc("wall time (s)")
         .y_desc(format!("{name} error (relative)"))
         .x_label_formatter(&|x| format!("{x:.2e}"))
