@@ -34,7 +34,9 @@
 //! measure, the wall time of the fixed-rule curve at the controller's error, interpolated
 //! log–log between adjacent rules, over the controller's wall time; `null` when no rule's
 //! error brackets it) and `load` (`/proc/loadavg` before and after). `--plot` draws the
-//! diagram (one panel per measure). Logs go to stderr.
+//! diagram (one panel per measure). Progress goes to stderr. Exit status: 0 at the end
+//! (and for `--help`), 1 when a scenario cannot be read or run or the reference run fails,
+//! 2 for a usage error.
 
 #[path = "work_precision/measure.rs"]
 mod measure;
@@ -101,7 +103,6 @@ fn parse_args() -> Result<Args, String> {
                 }
             }
             "--repeat" => a.repeat = repeats::parse_repeat(it.next())?,
-            "-h" | "--help" => return Err(USAGE.into()),
             other => return Err(format!("unknown argument {other}")),
         }
     }
@@ -118,6 +119,10 @@ fn load() -> String {
 }
 
 fn main() -> ExitCode {
+    if std::env::args().skip(1).any(|a| a == "-h" || a == "--help") {
+        println!("{USAGE}");
+        return ExitCode::SUCCESS;
+    }
     let args = match parse_args() {
         Ok(a) => a,
         Err(e) => {
