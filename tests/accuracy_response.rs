@@ -12,11 +12,23 @@
 #[path = "../examples/work_precision/measure.rs"]
 mod measure;
 #[allow(dead_code)]
+#[path = "../examples/mls_mpm/model.rs"]
+mod model;
+#[allow(dead_code)]
+#[path = "../examples/mls_mpm/mpm88.rs"]
+mod mpm88;
+#[allow(dead_code)]
 #[path = "../examples/work_precision/runs.rs"]
 mod runs;
 #[allow(dead_code)]
 #[path = "../examples/work_precision/scene.rs"]
 mod scene;
+#[allow(dead_code)]
+#[path = "../examples/mls_mpm/solver.rs"]
+mod solver;
+#[allow(dead_code)]
+#[path = "../examples/mls_mpm/summary.rs"]
+mod summary;
 
 use measure::{errors, Errors};
 use runs::Policy;

@@ -16,6 +16,8 @@ use std::time::Instant;
 pub enum Policy {
     /// The fixed multiplier `α` of the sound-speed step.
     Fixed(f64),
+    /// A constant step (a scene's shipped step), in seconds.
+    Shipped(f64),
     /// The controller with `rtol = atol_rel = tol` (`None`: the scene's config as it is).
     Controller(Option<f64>),
 }
@@ -25,6 +27,7 @@ impl Policy {
     pub fn name(&self) -> String {
         match self {
             Policy::Fixed(a) => format!("alpha={a}"),
+            Policy::Shipped(dt) => format!("shipped dt={dt}"),
             Policy::Controller(None) => "mpm-dt default".into(),
             Policy::Controller(Some(t)) => format!("mpm-dt tol={t}"),
         }
@@ -101,13 +104,13 @@ where
         rejected = c.stats().rejected;
     } else {
         while s.time() < t_end * (1.0 - 1e-14) {
-            let alpha = match policy {
-                Policy::Fixed(a) => a,
+            let dt = match policy {
+                Policy::Fixed(a) => SoundSpeedNd::unit_step(&s.view())
+                    .map(|u| a * u)
+                    .map_err(|e| e.to_string()),
+                Policy::Shipped(dt) => Ok(dt),
                 Policy::Controller(_) => return Err("a controller policy without config".into()),
             };
-            let dt = SoundSpeedNd::unit_step(&s.view())
-                .map(|u| alpha * u)
-                .map_err(|e| e.to_string());
             let step = dt.and_then(|dt| {
                 let dt = dt.min(t_end - s.time());
                 s.try_step(dt)
@@ -164,7 +167,7 @@ pub fn run_1d(
     } else {
         let alpha = match policy {
             Policy::Fixed(a) => a,
-            Policy::Controller(_) => return Err("a controller policy without config".into()),
+            _ => return Err("the 1D scene runs fixed rules and the controller only".into()),
         };
         let limit = SoundSpeed::new(SoundSpeedConfig { alpha }).map_err(|e| e.to_string())?;
         while s.time() < t_end * (1.0 - 1e-14) {

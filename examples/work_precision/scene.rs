@@ -1,10 +1,15 @@
-//! A scene of the diagram: a 1D scenario on the 1D reference solver, or a 2D/3D one on the
-//! d-dimensional solver, with what the error measures need (its particles, its initial
-//! energy and mass, its end time).
+//! A scene of the diagram: a 1D scenario on the 1D reference solver, a 2D/3D one on the
+//! d-dimensional solver, or taichi's mpm88 jelly or fluid on the MLS-MPM solver of
+//! `mls_mpm` (`mpm88-jelly`, `mpm88-fluid`: 8 192 particles, 128² cells, to t = 0.5, its
+//! controller told the APIC transfer, the total energy kinetic + elastic + potential above
+//! the floor), with what the error measures need (its particles, its initial energy and
+//! mass, its end time) and, for mpm88, its shipped step `2·10⁻⁴`.
 
 use super::measure::Scales;
+use super::mpm88::{self, MPM88_DT};
 use super::runs::{run_1d, run_nd, EndState, Policy};
-use mpm_dt::controller::ControllerConfig;
+use super::solver::MlsMpm;
+use mpm_dt::controller::{Controller, ControllerConfig};
 use mpm_dt::nd::scenario::ScenarioNd;
 use mpm_dt::nd::SolverNd;
 use mpm_dt::scenario::Scenario;
@@ -24,12 +29,20 @@ pub struct Scene {
     pub scales: Scales,
     /// End time.
     pub t_end: f64,
+    /// The scene's shipped fixed step, if it has one.
+    pub shipped_dt: Option<f64>,
 }
 
 enum Kind {
     One(Box<Scenario>),
     Two(Box<ScenarioNd>),
     Three(Box<ScenarioNd>),
+    Mpm88(mpm88::Scene),
+}
+
+fn mpm88_energy(s: &MlsMpm) -> f64 {
+    let (k, e, p) = s.energies();
+    k + e + p
 }
 
 fn nd_totals<const D: usize>(s: &SolverNd<D>) -> (usize, f64, f64)
@@ -41,8 +54,12 @@ where
 }
 
 impl Scene {
-    /// Reads the scenario file at `path` (any dimension).
+    /// Reads the scenario file at `path` (any dimension), or sets up `mpm88-jelly` /
+    /// `mpm88-fluid`.
     pub fn open(path: &str) -> Result<Self, String> {
+        if let Some(kind) = path.strip_prefix("mpm88-") {
+            return Ok(Self::mpm88(kind == "fluid"));
+        }
         let text = std::fs::read_to_string(path).map_err(|e| format!("{path}: {e}"))?;
         let dim = ScenarioNd::dim_of(&text).map_err(|e| e.to_string())?;
         let (kind, config, (n, e0, mass), t_end) = if dim == 1 {
@@ -82,7 +99,29 @@ impl Scene {
             particles: n,
             scales: Scales::new(e0, mass, t_end),
             t_end,
+            shipped_dt: None,
         })
+    }
+
+    /// mpm88's scene (module docs).
+    fn mpm88(fluid: bool) -> Self {
+        let scene = mpm88::Scene {
+            n_grid: 128,
+            t_end: 0.5,
+            fluid,
+            apic: true,
+            summary: true,
+        };
+        let s = mpm88::build(scene);
+        let mass: f64 = mpm_dt::Stepper::view(&s).mass.iter().sum();
+        Self {
+            kind: Kind::Mpm88(scene),
+            config: ControllerConfig::default(),
+            particles: mpm_dt::Stepper::view(&s).x.len(),
+            scales: Scales::new(mpm88_energy(&s), mass, scene.t_end),
+            t_end: scene.t_end,
+            shipped_dt: Some(MPM88_DT),
+        }
     }
 
     /// Runs the scene under `policy` to its end.
@@ -91,6 +130,26 @@ impl Scene {
             Kind::One(s) => run_1d(s, policy, &self.config),
             Kind::Two(s) => self.run_nd::<2>(s, policy),
             Kind::Three(s) => self.run_nd::<3>(s, policy),
+            Kind::Mpm88(scene) => {
+                // Fixed-step runs never compute the pass totals (as in `mls_mpm`).
+                let controlled = matches!(policy, Policy::Controller(_));
+                let solver = mpm88::build(mpm88::Scene {
+                    summary: controlled,
+                    ..*scene
+                });
+                let controller = |c: ControllerConfig| {
+                    let limits = mpm88::limits(*scene, &c);
+                    Controller::<2>::new(c, limits).map_err(|e| e.to_string())
+                };
+                run_nd(
+                    solver,
+                    policy,
+                    self.t_end,
+                    &self.config,
+                    &controller,
+                    &mpm88_energy,
+                )
+            }
         }
     }
 

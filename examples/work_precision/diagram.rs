@@ -102,6 +102,7 @@ pub fn diagram(
     let policies: Vec<Policy> = alphas
         .iter()
         .map(|&a| Policy::Fixed(a))
+        .chain(scene.shipped_dt.map(Policy::Shipped))
         .chain(std::iter::once(Policy::Controller(None)))
         .chain(tols.iter().map(|&t| Policy::Controller(Some(t))))
         .collect();
@@ -169,7 +170,7 @@ fn matches(points: &[PointRow]) -> Vec<Match> {
     let fixed = |k: usize| -> Vec<(f64, f64)> {
         points
             .iter()
-            .filter(|p| matches!(p.kind, Policy::Fixed(_)))
+            .filter(|p| matches!(p.kind, Policy::Fixed(_) | Policy::Shipped(_)))
             .filter_map(|p| p.errors.map(|e| (p.wall_s, e.named()[k].1)))
             .collect()
     };
@@ -199,6 +200,7 @@ impl Doc {
                 let errors = p.errors?;
                 let (label, controller, default) = match p.kind {
                     Policy::Fixed(a) => (format!("α={a}"), false, false),
+                    Policy::Shipped(_) => ("shipped".into(), false, false),
                     Policy::Controller(None) => ("default".into(), true, true),
                     Policy::Controller(Some(t)) => (format!("{t}"), true, false),
                 };
