@@ -373,3 +373,66 @@ fn user_flip_refuses_an_unknown_scene_and_a_repeat_of_zero() {
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("--repeat"));
 }
+
+#[test]
+fn work_precision_refuses_bad_arguments_and_a_bad_scenario() {
+    let out = run(
+        "work_precision",
+        &["--scenario", "scenarios/vibrating_bar.json", "--tol", "0"],
+    );
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--tol"));
+    let out = run(
+        "work_precision",
+        &["--scenario", "x.json", "--reference-alpha", "0.1"],
+    );
+    assert_eq!(out.status.code(), Some(2));
+    let bad = scenario_file("wp_bad.json", r#"{"cells": 0, "length": 1.0}"#);
+    let out = run("work_precision", &["--scenario", bad.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(1));
+    let out = run("work_precision", &["--help"]);
+    assert_eq!(out.status.code(), Some(0));
+    assert!(String::from_utf8_lossy(&out.stdout).contains("usage"));
+}
+
+#[test]
+fn work_precision_reports_errors_against_the_reference() {
+    let doc = run_json(
+        "work_precision",
+        &[
+            "--scenario",
+            "scenarios/vibrating_bar.json",
+            "--alpha",
+            "0.2,0.7",
+            "--tol",
+            "0.0003",
+            "--repeat",
+            "2",
+            "--json",
+        ],
+    );
+    let points = doc["points"].as_array().expect("points");
+    let names: Vec<&str> = points.iter().filter_map(|p| p["policy"].as_str()).collect();
+    assert_eq!(
+        names,
+        [
+            "alpha=0.2",
+            "alpha=0.7",
+            "mpm-dt default",
+            "mpm-dt tol=0.0003"
+        ]
+    );
+    let energy = |i: usize| {
+        points[i]["errors"]["energy"]
+            .as_f64()
+            .expect("energy error")
+    };
+    // A smaller fixed step is closer to the converged run; so is the tighter tolerance.
+    assert!(energy(0) < energy(1), "{points:?}");
+    assert!(energy(3) < energy(2), "{points:?}");
+    assert_eq!(points[0]["wall_s_runs"].as_array().map(Vec::len), Some(2));
+    assert!(doc["reference"]["reference_change"]["velocity"]
+        .as_f64()
+        .is_some());
+    assert_eq!(doc["fixed_time_to_match"].as_array().map(Vec::len), Some(2));
+}

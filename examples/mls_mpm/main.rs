@@ -30,63 +30,18 @@
 //!   second or two vary by several per cent on a shared machine.
 
 mod model;
+mod mpm88;
 #[path = "../common/repeats.rs"]
 mod repeats;
 mod solver;
 mod summary;
 
+use mpm88::{build, Scene, MPM88_DT};
 use mpm_dt::controller::{Controller, ControllerConfig};
-use mpm_dt::limits_nd::{standard_limits, SoundSpeedNd, TransferNd};
-use mpm_dt::nd::Vector;
+use mpm_dt::limits_nd::SoundSpeedNd;
 use mpm_dt::Stepper;
-use nalgebra::Vector2;
-use rand::{Rng, SeedableRng};
-use solver::{MlsMpm, Model};
+use solver::MlsMpm;
 use std::process::ExitCode;
-
-/// mpm88's shipped fixed step.
-const MPM88_DT: f64 = 2e-4;
-
-/// The scene's settings.
-#[derive(Clone, Copy, Debug)]
-struct Scene {
-    n_grid: usize,
-    t_end: f64,
-    /// mpm88's own weakly compressible fluid instead of the jelly.
-    fluid: bool,
-    /// The stability limit analyses the scheme's APIC transfer (the default), or the
-    /// paper's FLIP step as eq 56 stands (`--eq56`) (`limits_nd::TransferNd`).
-    apic: bool,
-    /// Whether the controlled run's solver hands the library its pass's totals (the
-    /// opt-in contract; `--generic` turns it off). Fixed-step runs never compute them.
-    summary: bool,
-}
-
-fn build(scene: Scene) -> MlsMpm {
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(88);
-    // mpm88's particle count, whatever the grid (its `n_particles = 8192`).
-    let n = 8192;
-    let x: Vec<Vector2<f64>> = (0..n)
-        .map(|_| {
-            Vector2::new(
-                rng.random::<f64>() * 0.4 + 0.2,
-                rng.random::<f64>() * 0.4 + 0.2,
-            )
-        })
-        .collect();
-    let v = vec![Vector2::new(0.0, -1.0); n];
-    let model = if scene.fluid {
-        Model::Fluid {
-            bulk_modulus: 400.0,
-        }
-    } else {
-        Model::Jelly {
-            youngs_modulus: 400.0,
-            poisson_ratio: 0.2,
-        }
-    };
-    MlsMpm::new(scene.n_grid, model, 1.0, Vector2::new(0.0, -9.8), x, v).with_summary(scene.summary)
-}
 
 /// How a fixed-step run ended.
 #[derive(Debug)]
@@ -175,13 +130,8 @@ struct ControlledRun {
 /// with no tuning.
 fn run_controlled(scene: Scene) -> ControlledRun {
     let mut s = build(scene);
-    let mut config = ControllerConfig::default();
-    if scene.apic {
-        // The stability limit told that the scheme transfers velocities by APIC with
-        // quadratic B-splines (inertia h²/4): a property of the scheme, not a tuning.
-        config.stability_nd.transfer = TransferNd::Apic { inertia: 0.25 };
-    }
-    let limits = standard_limits::<2>(&config, Vector::<2>::new(0.0, -9.8));
+    let config = ControllerConfig::default();
+    let limits = mpm88::limits(scene, &config);
     let start = std::time::Instant::now();
     let mut controller = match Controller::<2>::new(config, limits) {
         Ok(c) => c,
