@@ -23,7 +23,7 @@ fn restarted_run_is_bit_identical() {
     let mut config = ControllerConfig::default();
     // Tight tolerance so the filter (with history) sets dt and rejections happen.
     config.temporal.rtol = 1e-4;
-    config.temporal.atol_rel = 1e-4;
+    config.temporal.atol_rel = Some(1e-4);
     let mut s = MockStepper::standing_wave(16, 2, 1.0, 1e-2, Shape::Gimp, 0.3, 9);
     let mut c = Controller::new(config.clone(), limits(&config)).unwrap();
     c.run_until(&mut s, 0.1, &mut |_| {}).unwrap();

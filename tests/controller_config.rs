@@ -215,7 +215,7 @@ fn config() -> impl Strategy<Value = ControllerConfig> {
             temporal: TemporalErrorConfig {
                 enabled: t.0,
                 rtol: t.1,
-                atol_rel: t.2,
+                atol_rel: Some(t.2),
                 atol_v: t.3,
                 atol_sigma: t.4,
                 balance: t.5,

@@ -63,7 +63,7 @@ fn second_derivative_matches_the_standing_wave() {
     let cfg = TemporalErrorConfig {
         max_deferred: 0,
         rtol: 0.1,
-        atol_rel: 0.1,
+        atol_rel: Some(0.1),
         ..TemporalErrorConfig::default()
     };
     let mut s = MockStepper::standing_wave(64, 2, 1.0, a, Shape::Gimp, 0.0, 1);
@@ -80,7 +80,7 @@ fn second_derivative_matches_the_standing_wave() {
     let sum: f64 = (0..n)
         .map(|p| {
             let le = 0.5 * dt * dt * omega * omega * v1[p].abs();
-            let w = cfg.atol_rel * vmax + cfg.rtol * v1[p].abs();
+            let w = cfg.atol_rel() * vmax + cfg.rtol * v1[p].abs();
             (le / w).powi(2)
         })
         .sum();
@@ -100,7 +100,7 @@ fn balancing_loosens_the_tolerance_where_the_spatial_error_is_large() {
         let cfg = TemporalErrorConfig {
             max_deferred: 0,
             rtol: 1e-5,
-            atol_rel: 1e-5,
+            atol_rel: Some(1e-5),
             balance,
             ..TemporalErrorConfig::default()
         };
@@ -206,4 +206,34 @@ fn deferred_checks_in_1d_resume_and_see_the_steps_between() {
     let mut bad = saved.clone();
     bad["defer"]["dsm"] = serde_json::json!(-1.0);
     assert!(restored.restore_state(&bad).is_err());
+}
+
+/// `rtol` alone dials the accuracy: `atol_rel` follows it unless set, so a config with
+/// only `rtol` takes the steps of one with both at that value, and more of them than one
+/// that keeps the old fixed floor `atol_rel = 0.05`.
+#[test]
+fn rtol_alone_tightens_the_limit() {
+    use mpm_dt::controller::{Controller, ControllerConfig};
+    use mpm_dt::scenario::Scenario;
+    let steps = |temporal: &str| {
+        let scenario = Scenario::from_json(r#"{"cells": 40, "t_end": 1.0}"#).unwrap();
+        let mut solver = scenario.build().unwrap();
+        let config = ControllerConfig::from_json(&format!(r#"{{"temporal": {temporal}}}"#))
+            .unwrap();
+        let mut controller = Controller::standard(config).unwrap();
+        let mut dts = Vec::new();
+        controller
+            .run_until(&mut solver, 1.0, &mut |d| dts.push(d.dt.to_bits()))
+            .unwrap();
+        dts
+    };
+    let alone = steps(r#"{"rtol": 3e-5}"#);
+    assert_eq!(alone, steps(r#"{"rtol": 3e-5, "atol_rel": 3e-5}"#));
+    let floored = steps(r#"{"rtol": 3e-5, "atol_rel": 0.05}"#);
+    assert!(
+        alone.len() > floored.len(),
+        "rtol alone took {} steps, with the 0.05 floor {}",
+        alone.len(),
+        floored.len()
+    );
 }

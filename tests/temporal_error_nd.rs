@@ -94,7 +94,7 @@ fn a_tight_tolerance_binds_the_step() {
         let (mut s, scenario) = plane_wave();
         let mut config: ControllerConfig = scenario.controller_config().expect("config");
         config.temporal.rtol = rtol;
-        config.temporal.atol_rel = rtol;
+        config.temporal.atol_rel = Some(rtol);
         let limits = standard_limits::<2>(&config, Vector::<2>::zeros());
         let mut c = Controller::<2>::new(config, limits).expect("controller");
         let (mut steps, mut by_error) = (0, 0);

@@ -40,7 +40,7 @@ impl Policy {
                 let mut c = base.clone();
                 if let Some(t) = tol {
                     c.temporal.rtol = t;
-                    c.temporal.atol_rel = t;
+                    c.temporal.atol_rel = Some(t);
                 }
                 Some(c)
             }

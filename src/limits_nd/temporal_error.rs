@@ -249,7 +249,10 @@ impl<const D: usize> TemporalErrorNd<D> {
         let weights = |sv: f64, ss: f64| {
             Some(Weights {
                 rtol: c.rtol,
-                abs: (c.atol_v + c.atol_rel * sv, c.atol_sigma + c.atol_rel * ss),
+                abs: (
+                    c.atol_v + c.atol_rel() * sv,
+                    c.atol_sigma + c.atol_rel() * ss,
+                ),
             })
         };
         let pair = Pairing {
