@@ -40,10 +40,11 @@
 mod common;
 #[path = "simulate/side_by_side.rs"]
 mod side_by_side;
+#[path = "simulate/state_stream.rs"]
+mod state_stream;
 
 use mpm_dt::controller::{Controller, ControllerConfig, Stats};
 use mpm_dt::nd::scenario::ScenarioNd;
-use mpm_dt::nd::SolverNd;
 use mpm_dt::reduce::Reduce;
 use mpm_dt::scenario::Scenario;
 use mpm_dt::{Dim, Dimension, Stepper, ViewNd};
@@ -128,28 +129,6 @@ fn stats_summary(stats: &Stats) -> Value {
     })
 }
 
-fn state_json<const D: usize>(s: &SolverNd<D>) -> Value
-where
-    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
-{
-    let view = s.view();
-    let vecs = |v: &[mpm_dt::nd::Vector<D>]| -> Value {
-        v.iter()
-            .map(|x| x.iter().copied().collect::<Vec<f64>>())
-            .collect()
-    };
-    let mats = |m: &[mpm_dt::nd::Tensor<D>]| -> Value {
-        m.iter()
-            .map(|t| {
-                (0..D)
-                    .map(|r| (0..D).map(|c| t[(r, c)]).collect::<Vec<f64>>())
-                    .collect::<Vec<_>>()
-            })
-            .collect()
-    };
-    json!({"x": vecs(view.x), "v": vecs(view.v), "sigma": mats(view.sigma), "F": mats(view.f)})
-}
-
 /// `k` plain steps of `dt` (no controller); the first failure's message, if any.
 fn fixed_steps<const D: usize>(s: &mut dyn Stepper<D>, dt: f64, k: u64) -> Option<String>
 where
@@ -203,7 +182,7 @@ fn run_nd<const D: usize>(
     scenario: &ScenarioNd,
     args: &Args,
     ranks: &Ranks,
-) -> Result<Value, String>
+) -> Result<(Value, Option<state_stream::StateWriter>), String>
 where
     Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
 {
@@ -212,7 +191,8 @@ where
         None => scenario.build::<D>(),
     }
     .map_err(|e| e.to_string())?;
-    let template = s.clone();
+    // The initial state for the side-by-side runs; no copy otherwise.
+    let template = args.compare.then(|| s.clone());
     let e0 = ranks.sum(s.total_energy());
     let describe = format!(
         "{D}D, {} particles, cells {:?}, shape {:?}, {} process(es)",
@@ -228,14 +208,14 @@ where
         let error = fixed_steps(&mut s, dt, k);
         let e = s.total_energy();
         let blew_up = error.is_some() || !e.is_finite() || e > 10.0 * e0;
-        let mut out = json!({
+        let out = json!({
             "t_final": s.time(), "steps_accepted": s.step_count(), "steps_rejected": 0,
             "blew_up": blew_up, "dt_min": dt, "dt_mean": dt, "dt_max": dt, "binding": {},
             "velocity_error_linf": wave.as_ref().map(|w| w.velocity_error(&s.view())),
             "energy_initial": e0, "energy_final": e, "error": error,
         });
-        out["state"] = state_json(&s);
-        return Ok(out);
+        // The state is streamed when the summary is printed, not built here.
+        return Ok((out, Some(state_stream::writer(s))));
     }
     let config: ControllerConfig = scenario.controller_config().map_err(|e| e.to_string())?;
     let mut controller =
@@ -298,10 +278,10 @@ where
         out["ranks"] = json!(ranks.size());
         out["reduce_s"] = json!((ranks.spent)());
     }
-    if args.compare {
+    if let Some(template) = &template {
         let reached = error.is_none();
         let timed = side_by_side::fixed_rules(
-            &template,
+            template,
             scenario,
             &config,
             wave.as_ref(),
@@ -312,7 +292,7 @@ where
         out["wall_s_runs"] = json!(timed.ours_runs);
         out["fixed_rules"] = timed.rules;
     }
-    Ok(out)
+    Ok((out, None))
 }
 
 fn run_1d(text: &str, args: &Args) -> Result<Value, String> {
@@ -412,7 +392,7 @@ fn main() -> ExitCode {
             let dim = ScenarioNd::dim_of(&text).map_err(|e| e.to_string())?;
             match dim {
                 1 if ranks.size() > 1 => Err("1D scenarios run on one process".into()),
-                1 => run_1d(&text, &args),
+                1 => run_1d(&text, &args).map(|v| (v, None)),
                 d => {
                     let scenario = ScenarioNd::from_json(&text).map_err(|e| e.to_string())?;
                     if d == 2 {
@@ -426,7 +406,7 @@ fn main() -> ExitCode {
     if !ranks.lead() {
         // Rank 0 reports; the others only say why they failed, if they did.
         return match result {
-            Ok(summary) if !summary["blew_up"].as_bool().unwrap_or(false) => ExitCode::SUCCESS,
+            Ok((summary, _)) if !summary["blew_up"].as_bool().unwrap_or(false) => ExitCode::SUCCESS,
             Ok(_) => ExitCode::FAILURE,
             Err(e) => {
                 eprintln!("error: {e}");
@@ -435,19 +415,20 @@ fn main() -> ExitCode {
         };
     }
     match result {
-        Ok(summary) => {
+        Ok((summary, state)) => {
             let failed = summary["blew_up"].as_bool().unwrap_or(false);
-            if args.json {
-                println!("{summary}");
-            } else {
-                let mut shown = summary.clone();
-                if let Some(o) = shown.as_object_mut() {
-                    o.remove("state");
+            match state {
+                Some(state) if args.json => {
+                    if let Err(e) = state_stream::print_with_state(&summary, state) {
+                        eprintln!("error: writing the state: {e}");
+                        return ExitCode::FAILURE;
+                    }
                 }
-                println!(
+                _ if args.json => println!("{summary}"),
+                _ => println!(
                     "{}",
-                    serde_json::to_string_pretty(&shown).unwrap_or_default()
-                );
+                    serde_json::to_string_pretty(&summary).unwrap_or_default()
+                ),
             }
             if failed {
                 eprintln!(

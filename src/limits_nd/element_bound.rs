@@ -79,27 +79,32 @@ pub fn particle_bound<const D: usize>(
     p: usize,
     skip: impl Fn(usize) -> bool,
 ) -> f64 {
-    let w = &view.weights;
     let h_max = view.grid.h.iter().fold(0.0f64, |m, &x| m.max(x));
-    let mut h = [[0.0f64; D]; D];
-    for ((&i, &s), g) in w.nodes_of(p).iter().zip(w.s_of(p)).zip(w.grad_of(p)) {
-        if skip(i as usize) || *g == Vector::<D>::zeros() {
-            continue;
-        }
-        if s <= 0.0 {
-            // A round-off residue of a gradient that vanishes with its weight (GIMP at
-            // the edge of a particle's domain) is left out; a real one is unbounded.
-            if g.amax() * h_max <= ROUND_OFF {
+    let metric = view.weights.with_row(p, |nodes, s, grad| {
+        let mut h = [[0.0f64; D]; D];
+        for ((&i, &s), g) in nodes.iter().zip(s).zip(grad) {
+            if skip(i as usize) || *g == Vector::<D>::zeros() {
                 continue;
             }
-            return f64::INFINITY;
-        }
-        for a in 0..D {
-            for b in 0..D {
-                h[a][b] += g[a] * g[b] / s;
+            if s <= 0.0 {
+                // A round-off residue of a gradient that vanishes with its weight (GIMP at
+                // the edge of a particle's domain) is left out; a real one is unbounded.
+                if g.amax() * h_max <= ROUND_OFF {
+                    continue;
+                }
+                return None;
+            }
+            for a in 0..D {
+                for b in 0..D {
+                    h[a][b] += g[a] * g[b] / s;
+                }
             }
         }
-    }
+        Some(h)
+    });
+    let Some(h) = metric else {
+        return f64::INFINITY;
+    };
     let trace: f64 = (0..D).map(|a| h[a][a]).sum();
     let row_sum = (0..D)
         .map(|a| h[a].iter().map(|x| x.abs()).sum::<f64>())

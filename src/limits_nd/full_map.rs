@@ -69,10 +69,12 @@ fn step<const D: usize>(view: &ViewNd<'_, D>, dt: f64, z: &[f64], out: &mut [f64
     for p in 0..n {
         let mv = v(p) * view.mass[p];
         let vs = sigma(p) * (-view.volume(p));
-        for ((&i, &s), g) in w.nodes_of(p).iter().zip(w.s_of(p)).zip(w.grad_of(p)) {
-            node_v[i as usize] += mv * s;
-            node_a[i as usize] += vs * g;
-        }
+        w.with_row(p, |nodes, s, grad| {
+            for ((&i, &s), g) in nodes.iter().zip(s).zip(grad) {
+                node_v[i as usize] += mv * s;
+                node_a[i as usize] += vs * g;
+            }
+        });
     }
     for i in 0..nn {
         let inv = if view.node_active[i] {
@@ -84,12 +86,15 @@ fn step<const D: usize>(view: &ViewNd<'_, D>, dt: f64, z: &[f64], out: &mut [f64
         node_v[i] = node_v[i] * inv + node_a[i] * dt;
     }
     for p in 0..n {
-        let mut acc = Vector::<D>::zeros();
-        let mut l = Tensor::<D>::zeros();
-        for ((&i, &s), g) in w.nodes_of(p).iter().zip(w.s_of(p)).zip(w.grad_of(p)) {
-            acc += node_a[i as usize] * s;
-            l += node_v[i as usize] * g.transpose();
-        }
+        let (acc, l) = w.with_row(p, |nodes, s, grad| {
+            let mut acc = Vector::<D>::zeros();
+            let mut l = Tensor::<D>::zeros();
+            for ((&i, &s), g) in nodes.iter().zip(s).zip(grad) {
+                acc += node_a[i as usize] * s;
+                l += node_v[i as usize] * g.transpose();
+            }
+            (acc, l)
+        });
         let vp = v(p) + acc * dt;
         let eps = (l + l.transpose()) * 0.5;
         let sp = sigma(p)

@@ -72,31 +72,32 @@ pub(super) fn apply_with<const D: usize>(
     y.fill(0.0);
     let w = &view.weights;
     for (p, &(vol_lambda, vol_mu)) in moduli.iter().enumerate() {
-        let nodes = w.nodes_of(p);
-        let grads = w.grad_of(p);
-        let mut l = Tensor::<D>::zeros();
-        for (&i, g) in nodes.iter().zip(grads) {
-            let i = i as usize;
-            let s = inv_sqrt_m[i];
-            if s == 0.0 {
-                continue;
+        w.with_row(p, |nodes, _, grads| {
+            let mut l = Tensor::<D>::zeros();
+            for (&i, g) in nodes.iter().zip(grads) {
+                let i = i as usize;
+                let s = inv_sqrt_m[i];
+                if s == 0.0 {
+                    continue;
+                }
+                let ui = Vector::<D>::from_fn(|a, _| u[i * D + a] * s);
+                l += ui * g.transpose();
             }
-            let ui = Vector::<D>::from_fn(|a, _| u[i * D + a] * s);
-            l += ui * g.transpose();
-        }
-        let eps = (l + l.transpose()) * 0.5;
-        let stress = Tensor::<D>::identity() * (vol_lambda * eps.trace()) + eps * (2.0 * vol_mu);
-        for (&i, g) in nodes.iter().zip(grads) {
-            let i = i as usize;
-            let s = inv_sqrt_m[i];
-            if s == 0.0 {
-                continue;
+            let eps = (l + l.transpose()) * 0.5;
+            let stress =
+                Tensor::<D>::identity() * (vol_lambda * eps.trace()) + eps * (2.0 * vol_mu);
+            for (&i, g) in nodes.iter().zip(grads) {
+                let i = i as usize;
+                let s = inv_sqrt_m[i];
+                if s == 0.0 {
+                    continue;
+                }
+                let f = stress * g;
+                for a in 0..D {
+                    y[i * D + a] += f[a] * s;
+                }
             }
-            let f = stress * g;
-            for a in 0..D {
-                y[i * D + a] += f[a] * s;
-            }
-        }
+        });
     }
 }
 
@@ -122,13 +123,15 @@ pub fn diagonal_argmax<const D: usize>(view: &ViewNd<'_, D>, reduce: &dyn Reduce
     for p in 0..view.n_particles() {
         let vol = view.volume(p);
         let (l, m) = (view.lame_lambda[p], view.lame_mu[p]);
-        for (&i, g) in w.nodes_of(p).iter().zip(w.grad_of(p)) {
-            let i = i as usize;
-            let g2 = g.norm_squared();
-            for a in 0..D {
-                diag[i * D + a] += vol * ((l + m) * g[a] * g[a] + m * g2);
+        w.with_row(p, |nodes, _, grad| {
+            for (&i, g) in nodes.iter().zip(grad) {
+                let i = i as usize;
+                let g2 = g.norm_squared();
+                for a in 0..D {
+                    diag[i * D + a] += vol * ((l + m) * g[a] * g[a] + m * g2);
+                }
             }
-        }
+        });
     }
     space.complete(&mut diag);
     // The largest entry over the whole grid, then the lowest whole-grid index among the

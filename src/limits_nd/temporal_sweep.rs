@@ -85,14 +85,16 @@ pub(super) fn nodal_rates<const D: usize>(
     view: &ViewNd<'_, D>,
     p: usize,
 ) -> (Vector<D>, Tensor<D>) {
-    let w = view.weights;
-    let mut a = Vector::<D>::zeros();
-    let mut l = Tensor::<D>::zeros();
-    for ((&i, &s), g) in w.nodes_of(p).iter().zip(w.s_of(p)).zip(w.grad_of(p)) {
-        let i = i as usize;
-        a += view.node_acceleration[i] * s;
-        l += view.node_velocity[i] * g.transpose();
-    }
+    let (a, l) = view.weights.with_row(p, |nodes, s, grad| {
+        let mut a = Vector::<D>::zeros();
+        let mut l = Tensor::<D>::zeros();
+        for ((&i, &s), g) in nodes.iter().zip(s).zip(grad) {
+            let i = i as usize;
+            a += view.node_acceleration[i] * s;
+            l += view.node_velocity[i] * g.transpose();
+        }
+        (a, l)
+    });
     let e = (l + l.transpose()) * 0.5;
     let rate =
         Tensor::<D>::identity() * (view.lame_lambda[p] * e.trace()) + e * (2.0 * view.lame_mu[p]);

@@ -72,21 +72,23 @@ pub fn apic_gain<const D: usize>(
     let mut momentum = vec![0.0; nn * D];
     let w = view.weights;
     for p in 0..view.n_particles() {
-        let mut vp = Vector::<D>::zeros();
-        let mut cp = Tensor::<D>::zeros();
-        for ((&i, &s), g) in w.nodes_of(p).iter().zip(w.s_of(p)).zip(w.grad_of(p)) {
-            let vi = v(i as usize);
-            vp += vi * s;
-            cp += vi * g.transpose();
-        }
-        let m = view.mass[p];
-        for ((&i, &s), g) in w.nodes_of(p).iter().zip(w.s_of(p)).zip(w.grad_of(p)) {
-            let dpos = g.component_mul(&h2);
-            let add = (vp * s + cp * dpos) * m;
-            for a in 0..D {
-                momentum[i as usize * D + a] += add[a];
+        w.with_row(p, |nodes, s, grad| {
+            let mut vp = Vector::<D>::zeros();
+            let mut cp = Tensor::<D>::zeros();
+            for ((&i, &s), g) in nodes.iter().zip(s).zip(grad) {
+                let vi = v(i as usize);
+                vp += vi * s;
+                cp += vi * g.transpose();
             }
-        }
+            let m = view.mass[p];
+            for ((&i, &s), g) in nodes.iter().zip(s).zip(grad) {
+                let dpos = g.component_mul(&h2);
+                let add = (vp * s + cp * dpos) * m;
+                for a in 0..D {
+                    momentum[i as usize * D + a] += add[a];
+                }
+            }
+        });
     }
     space.complete(&mut momentum);
     // ⟨v, P v⟩_M = Σ_i v_i · (momentum_i): the mass cancels; ⟨v, v⟩_M = |y|² on active nodes.
@@ -128,16 +130,18 @@ mod tests {
         let h = grid.h[0];
         let (mut nodes, mut s, mut grad) = (Vec::new(), Vec::new(), Vec::new());
         for p in 0..view.n_particles() {
-            for (&i, &sv) in w.nodes_of(p).iter().zip(w.s_of(p)) {
-                let mut d = grid.node_position(i as usize) - view.x[p];
-                for a in 0..2 {
-                    // The periodic image nearest the particle.
-                    d[a] -= (d[a] / grid.length(a)).round() * grid.length(a);
+            w.with_row(p, |row_nodes, row_s, _| {
+                for (&i, &sv) in row_nodes.iter().zip(row_s) {
+                    let mut d = grid.node_position(i as usize) - view.x[p];
+                    for a in 0..2 {
+                        // The periodic image nearest the particle.
+                        d[a] -= (d[a] / grid.length(a)).round() * grid.length(a);
+                    }
+                    nodes.push(i);
+                    s.push(sv);
+                    grad.push(d * (4.0 / (h * h) * sv));
                 }
-                nodes.push(i);
-                s.push(sv);
-                grad.push(d * (4.0 / (h * h) * sv));
-            }
+            });
         }
         let mls = WeightsNd::from_rows(w.n_nodes(), w.width(), nodes, s, grad).unwrap();
         let view = ViewNd {

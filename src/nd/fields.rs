@@ -21,7 +21,7 @@ pub fn compute_weights<const D: usize>(
     domain: &[Vector<D>],
     weights: &mut WeightsNd<D>,
 ) -> Result<(), usize> {
-    kernels::compute_weights(grid, shape, x, domain, weights)
+    kernels::compute_weights(grid, shape, x, domain, weights, false)
 }
 
 /// The nodal fields of one state (module docs), in reusable buffers.

@@ -2,18 +2,22 @@
 //! particle → grid, grid update and grid → particle. Written once for any `D` over the
 //! tensor-product stencil (`nodes_per_axis^D` entries per particle).
 
+use super::factors::{form_row, AxisFactors};
 use super::{GridNd, MaterialNd, ShapeNd, SummaryNd, Tensor, Vector, WeightsNd};
 use crate::grid::Boundary;
 use crate::reduce::Reduce;
 
-/// Fills `weights` with `S_ip`, `∇S_ip` at positions `x` (module docs of `shape`).
-/// Returns the first particle whose stencil leaves the stored nodes (a fixed axis), if any.
+/// Fills `weights` with `S_ip`, `∇S_ip` at positions `x` (module docs of `shape`): as
+/// per-axis factors with `factored` (the reference solver's form, [`super::factors`]), else
+/// as stored rows formed from them. Returns the first particle whose stencil leaves the
+/// stored nodes (a fixed axis), if any.
 pub(super) fn compute_weights<const D: usize>(
     grid: &GridNd<D>,
     shape: ShapeNd,
     x: &[Vector<D>],
     domain: &[Vector<D>],
     weights: &mut WeightsNd<D>,
+    factored: bool,
 ) -> Result<(), usize> {
     let n_axis = shape.nodes_per_axis();
     let width = shape.width(D);
@@ -21,56 +25,70 @@ pub(super) fn compute_weights<const D: usize>(
         *weights = WeightsNd::new(grid.n_nodes(), width);
     }
     let strides: [usize; D] = std::array::from_fn(|a| grid.stride(a));
-    let (nodes, s, grad) = weights.storage_mut(x.len());
-    for p in 0..x.len() {
-        let st: [_; D] =
-            std::array::from_fn(|a| shape.axis(x[p][a] - grid.origin[a], domain[p][a], grid.h[a]));
-        // Storage index per axis of each of the stencil's nodes.
-        let mut idx = [[0usize; 3]; D];
-        for a in 0..D {
-            for (k, slot) in idx[a].iter_mut().enumerate().take(n_axis) {
-                match grid.storage_along(a, st[a].first + k as i64) {
-                    Some(i) => *slot = i * strides[a],
-                    // A padding slot (weight and derivative zero) past the ghost node: any
-                    // stored node will do.
-                    None if st[a].s[k] == 0.0 && st[a].d[k] == 0.0 => *slot = 0,
-                    None => return Err(p),
-                }
+    if factored {
+        if let Some(factors) = weights.factors_mut(x.len(), n_axis) {
+            for (p, f) in factors.iter_mut().enumerate() {
+                *f = axis_factors(grid, shape, &strides, &x[p], &domain[p]).ok_or(p)?;
             }
-        }
-        let base = p * width;
-        // Walk the stencil's nodes as an odometer over the axes (axis 0 fastest), with no
-        // integer division in the loop.
-        let mut ks = [0usize; D];
-        for m in 0..width {
-            let mut node = 0;
-            let mut w = 1.0;
-            for a in 0..D {
-                node += idx[a][ks[a]];
-                w *= st[a].s[ks[a]];
-            }
-            let g = Vector::<D>::from_fn(|a, _| {
-                let mut v = st[a].d[ks[a]];
-                for b in 0..D {
-                    if b != a {
-                        v *= st[b].s[ks[b]];
-                    }
-                }
-                v
-            });
-            nodes[base + m] = node as u32;
-            s[base + m] = w;
-            grad[base + m] = g;
-            for k in ks.iter_mut() {
-                *k += 1;
-                if *k < n_axis {
-                    break;
-                }
-                *k = 0;
-            }
+            return Ok(());
         }
     }
+    let (nodes, s, grad) = weights.storage_mut(x.len());
+    for p in 0..x.len() {
+        let f = axis_factors(grid, shape, &strides, &x[p], &domain[p]).ok_or(p)?;
+        let r = p * width..(p + 1) * width;
+        form_row(
+            &f,
+            n_axis,
+            &mut nodes[r.clone()],
+            &mut s[r.clone()],
+            &mut grad[r],
+        );
+    }
     Ok(())
+}
+
+/// The per-axis factors of a particle at `x` with GIMP domain `l`; `None` if its stencil
+/// leaves the stored nodes.
+#[inline]
+fn axis_factors<const D: usize>(
+    grid: &GridNd<D>,
+    shape: ShapeNd,
+    strides: &[usize; D],
+    x: &Vector<D>,
+    l: &Vector<D>,
+) -> Option<[AxisFactors; D]> {
+    let n_axis = shape.nodes_per_axis();
+    let mut out = [AxisFactors::default(); D];
+    for (a, f) in out.iter_mut().enumerate() {
+        let st = shape.axis(x[a] - grid.origin[a], l[a], grid.h[a]);
+        f.s = st.s;
+        f.d = st.d;
+        if grid.boundary[a] == Boundary::Periodic {
+            // One wrap for the first node; the next ones wrap by a comparison.
+            let n = grid.cells[a];
+            let first = st.first.rem_euclid(n as i64) as usize;
+            for k in 0..n_axis {
+                let i = if first + k >= n {
+                    first + k - n
+                } else {
+                    first + k
+                };
+                f.offset[k] = (i * strides[a]) as u32;
+            }
+            continue;
+        }
+        for k in 0..n_axis {
+            f.offset[k] = match grid.storage_along(a, st.first + k as i64) {
+                Some(i) => (i * strides[a]) as u32,
+                // A padding slot (weight and derivative zero) past the ghost node: any
+                // stored node will do.
+                None if st.s[k] == 0.0 && st.d[k] == 0.0 => 0,
+                None => return None,
+            };
+        }
+    }
+    Some(out)
 }
 
 /// Completes the nodal sums `(Σ S m, Σ S m v, −Σ V σ ∇S)` over the processes of a split
@@ -110,17 +128,11 @@ pub(super) fn particle_to_grid<const D: usize>(
         let mp = mass[p];
         let mv = v[p] * mp;
         let vs = sigma[p] * (-(super::det(&f[p]) * volume0[p]));
-        for ((&i, &w), g) in weights
-            .nodes_of(p)
-            .iter()
-            .zip(weights.s_of(p))
-            .zip(weights.grad_of(p))
-        {
-            let i = i as usize;
+        weights.for_each_in_row(p, |i, w, g| {
             node_mass[i] += w * mp;
             node_v[i] += mv * w;
             node_a[i] += vs * g;
-        }
+        });
     }
     // The other processes' sums, in a split run.
     complete(node_mass, node_v, node_a);
@@ -222,19 +234,18 @@ pub(super) fn grid_to_particle<const D: usize>(
         sound_unit_step: None,
     };
     for p in 0..from.x.len() {
-        let mut acc = Vector::<D>::zeros();
-        let mut l = Tensor::<D>::zeros();
-        for ((&i, &w), g) in from
-            .weights
-            .nodes_of(p)
-            .iter()
-            .zip(from.weights.s_of(p))
-            .zip(from.weights.grad_of(p))
-        {
-            let i = i as usize;
-            acc += from.node_a[i] * w;
-            l += node_v1[i] * g.transpose();
-        }
+        // The row formed on the stack first: a visitor's closure this large is not
+        // inlined into the unrolled stencil loop.
+        let (acc, l) = from.weights.with_row(p, |nodes, s, grad| {
+            let mut acc = Vector::<D>::zeros();
+            let mut l = Tensor::<D>::zeros();
+            for ((&i, &w), g) in nodes.iter().zip(s).zip(grad) {
+                let i = i as usize;
+                acc += from.node_a[i] * w;
+                l += node_v1[i] * g.transpose();
+            }
+            (acc, l)
+        });
         let mut v = from.v[p] + acc * dt;
         let f = from.f[p] + l * from.f[p] * dt;
         let sigma = material[p].update(&from.sigma[p], &l, &f, dt);

@@ -156,9 +156,8 @@ impl<const D: usize> Rows<D> for NdRows<'_, '_, D> {
     }
 
     #[inline]
-    fn row(&self, p: usize) -> (&[u32], &[f64], &[Vector<D>]) {
-        let w = self.view.weights;
-        (w.nodes_of(p), w.s_of(p), w.grad_of(p))
+    fn with_row<T>(&self, p: usize, f: impl FnOnce(&[u32], &[f64], &[Vector<D>]) -> T) -> T {
+        self.view.weights.with_row(p, f)
     }
 
     #[inline]

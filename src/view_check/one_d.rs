@@ -120,9 +120,9 @@ impl Rows<1> for OneDRows<'_, '_> {
     }
 
     #[inline]
-    fn row(&self, p: usize) -> (&[u32], &[f64], &[f64]) {
+    fn with_row<T>(&self, p: usize, f: impl FnOnce(&[u32], &[f64], &[f64]) -> T) -> T {
         let w = self.weights;
-        (w.nodes_of(p), w.s_of(p), w.d_of(p))
+        f(w.nodes_of(p), w.s_of(p), w.d_of(p))
     }
 
     #[inline]

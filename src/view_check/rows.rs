@@ -23,8 +23,8 @@ pub(super) trait Rows<const D: usize> {
     fn n_particles(&self) -> usize;
     /// Number of nodes the rows index.
     fn n_nodes(&self) -> usize;
-    /// Node indices, weights and gradients of particle `p`'s row.
-    fn row(&self, p: usize) -> (&[u32], &[f64], &[Self::Grad]);
+    /// Calls `f` with the node indices, weights and gradients of particle `p`'s row.
+    fn with_row<T>(&self, p: usize, f: impl FnOnce(&[u32], &[f64], &[Self::Grad]) -> T) -> T;
     /// The components of a gradient.
     fn components(g: Self::Grad) -> [f64; D];
     /// Position `X_i` of node `i`.
@@ -56,8 +56,10 @@ pub(super) fn check_rows<const D: usize, R: Rows<D>>(rows: &R) -> Result<(), Vie
     let half: [f64; D] = std::array::from_fn(|a| period[a].map_or(f64::INFINITY, |l| 0.5 * l));
     let along: [bool; D] = std::array::from_fn(|a| rows.complete_along(a));
     for p in 0..rows.n_particles() {
-        let (nodes, _, _) = rows.row(p);
-        if let Some(&node) = nodes.iter().find(|&&i| i as usize >= n_nodes) {
+        let bad = rows.with_row(p, |nodes, _, _| {
+            nodes.iter().find(|&&i| i as usize >= n_nodes).copied()
+        });
+        if let Some(node) = bad {
             return Err(ViewError::NodeOutOfRange {
                 array: "weights.nodes",
                 index: p,
@@ -83,39 +85,40 @@ fn row_sums<const D: usize, R: Rows<D>>(
     half: &[f64; D],
     magnitudes: bool,
 ) -> Sums<D> {
-    let (nodes, s, grad) = rows.row(p);
-    let x = rows.particle(p);
-    let mut sums = Sums {
-        s: 0.0,
-        g: [0.0; D],
-        g_abs: [0.0; D],
-        moment: [[0.0; D]; D],
-        moment_abs: [[0.0; D]; D],
-    };
-    for ((&node, &w), &g) in nodes.iter().zip(s).zip(grad) {
-        let g = R::components(g);
-        let xi = rows.node(node as usize);
-        let d: [f64; D] = std::array::from_fn(|a| {
-            let d = xi[a] - x[a];
-            match period[a] {
-                Some(l) if d > half[a] => d - l,
-                Some(l) if d < -half[a] => d + l,
-                _ => d,
-            }
-        });
-        sums.s += w;
-        for (b, &gb) in g.iter().enumerate() {
-            sums.g[b] += gb;
-            sums.g_abs[b] += gb.abs();
-            for (a, &da) in d.iter().enumerate() {
-                sums.moment[a][b] += da * gb;
-                if magnitudes {
-                    sums.moment_abs[a][b] += (da * gb).abs();
+    rows.with_row(p, |nodes, s, grad| {
+        let x = rows.particle(p);
+        let mut sums = Sums {
+            s: 0.0,
+            g: [0.0; D],
+            g_abs: [0.0; D],
+            moment: [[0.0; D]; D],
+            moment_abs: [[0.0; D]; D],
+        };
+        for ((&node, &w), &g) in nodes.iter().zip(s).zip(grad) {
+            let g = R::components(g);
+            let xi = rows.node(node as usize);
+            let d: [f64; D] = std::array::from_fn(|a| {
+                let d = xi[a] - x[a];
+                match period[a] {
+                    Some(l) if d > half[a] => d - l,
+                    Some(l) if d < -half[a] => d + l,
+                    _ => d,
+                }
+            });
+            sums.s += w;
+            for (b, &gb) in g.iter().enumerate() {
+                sums.g[b] += gb;
+                sums.g_abs[b] += gb.abs();
+                for (a, &da) in d.iter().enumerate() {
+                    sums.moment[a][b] += da * gb;
+                    if magnitudes {
+                        sums.moment_abs[a][b] += (da * gb).abs();
+                    }
                 }
             }
         }
-    }
-    sums
+        sums
+    })
 }
 
 /// Whether a row's sums pass (written so that a NaN fails every comparison). With
@@ -194,22 +197,23 @@ fn judge<const D: usize, R: Rows<D>>(
 
 /// The first non-finite weight or gradient of particle `p`'s row.
 fn non_finite_entry<const D: usize, R: Rows<D>>(rows: &R, p: usize) -> Result<(), ViewError> {
-    let (_, s, grad) = rows.row(p);
-    for (&w, &g) in s.iter().zip(grad) {
-        if !w.is_finite() {
-            return Err(ViewError::NonFinite {
-                array: "weights.s",
-                index: p,
-                value: w,
-            });
+    rows.with_row(p, |_, s, grad| {
+        for (&w, &g) in s.iter().zip(grad) {
+            if !w.is_finite() {
+                return Err(ViewError::NonFinite {
+                    array: "weights.s",
+                    index: p,
+                    value: w,
+                });
+            }
+            if let Some(&g) = R::components(g).iter().find(|g| !g.is_finite()) {
+                return Err(ViewError::NonFinite {
+                    array: "weights.grad",
+                    index: p,
+                    value: g,
+                });
+            }
         }
-        if let Some(&g) = R::components(g).iter().find(|g| !g.is_finite()) {
-            return Err(ViewError::NonFinite {
-                array: "weights.grad",
-                index: p,
-                value: g,
-            });
-        }
-    }
-    Ok(())
+        Ok(())
+    })
 }

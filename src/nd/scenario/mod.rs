@@ -37,8 +37,9 @@ use std::rc::Rc;
 
 mod particles;
 
-/// Most particles a scenario may ask for (about 3 GB of solver state in 3D).
-pub const MAX_PARTICLES: usize = 8_000_000;
+/// Most particles a scenario may ask for (about 22 GB for a controlled 3D run); a smaller
+/// size that the machine's available memory cannot hold is refused up front too.
+pub const MAX_PARTICLES: usize = 20_000_000;
 
 /// One value for every axis, or one per axis.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -32,6 +32,7 @@ impl ScenarioNd {
                     format!("must be ≥ 1 with at most {MAX_PARTICLES} particles in all"),
                 ));
             }
+            fits::<D>(n_cells * per, n_cells, "particles.per_cell")?;
             return Ok(ParticlesNd::uniform(grid, k, self.density, base));
         }
         if let Some(pos) = &spec.positions {
@@ -39,9 +40,10 @@ impl ScenarioNd {
             if n == 0 || n > MAX_PARTICLES {
                 return Err(invalid(
                     "particles.positions",
-                    "need 1 to 8 000 000 positions",
+                    format!("need 1 to {MAX_PARTICLES} positions"),
                 ));
             }
+            fits::<D>(n as f64, n_cells, "particles.positions")?;
             let x = pos
                 .iter()
                 .map(|p| vector::<D>(p, "particles.positions"))
@@ -171,4 +173,16 @@ impl ScenarioNd {
         }
         Ok(out)
     }
+}
+
+/// Peak bytes per particle of a controlled run of the reference solver, rounded up from
+/// the measured 0.71 kB (2D) and 1.12 kB (3D) at 10⁶ particles (`docs/performance.md`).
+const PEAK_BYTES_PER_PARTICLE: [f64; 4] = [0.0, 400.0, 800.0, 1200.0];
+
+/// Refuses up front a run of `n` particles on `n_cells` cells that the available memory
+/// cannot hold (the nodal fields and the tracker's vectors about 1 kB a node).
+fn fits<const D: usize>(n: f64, n_cells: f64, field: &str) -> Result<(), ScenarioNdError> {
+    let per_particle = PEAK_BYTES_PER_PARTICLE[D.min(3)];
+    crate::memory::check(per_particle * n + 1000.0 * n_cells)
+        .map_err(|reason| invalid(field, reason))
 }

@@ -134,6 +134,7 @@ impl<const D: usize> SolverNd<D> {
                 &s.x,
                 &s.carried.domain,
                 &mut s.weights,
+                true,
             )
         };
         if failed || fault.is_err() {

@@ -1,0 +1,93 @@
+//! Particle-steps per second of the reference solver's bare step by the process's CPU
+//! time (user + system), which a busy machine's time slicing does not inflate.
+//! The set-up of `benches/step_nd.rs` (periodic unit box, 2 particles per cell per axis,
+//! a small plane wave), one warm-up step, then STEPS timed steps:
+//!
+//! ```text
+//! cargo run --release --example step_rate -- DIM SHAPE CELLS STEPS
+//! ```
+
+use mpm_dt::nd::{GridNd, MaterialNd, ParticlesNd, ShapeNd, SolverNd, Vector};
+use mpm_dt::{Boundary, Dim, Dimension, Stepper, ViewNd};
+
+/// CPU time this process has run, from `/proc/self/schedstat` (nanoseconds on a CPU).
+fn cpu_seconds() -> f64 {
+    let text = std::fs::read_to_string("/proc/self/schedstat").unwrap_or_default();
+    let ns: f64 = text
+        .split_whitespace()
+        .next()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(0.0);
+    ns * 1e-9
+}
+
+fn run<const D: usize>(shape: ShapeNd, cells: usize, steps: usize)
+where
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+{
+    let material = MaterialNd::LinearElastic {
+        youngs_modulus: 1.0,
+        poisson_ratio: 0.3,
+    };
+    let grid = GridNd::<D>::new([Boundary::Periodic; D], [cells; D], [1.0; D]);
+    let mut particles = ParticlesNd::uniform(&grid, [2; D], 1.0, material);
+    for p in 0..particles.len() {
+        particles.v[p][0] = 1e-3 * (2.0 * std::f64::consts::PI * particles.x[p][0]).sin();
+    }
+    let mut s = match SolverNd::new(grid, shape, particles, Vector::<D>::zeros()) {
+        Ok(s) => s,
+        Err(e) => return eprintln!("set-up failed: {e}"),
+    };
+    // Half the sound-speed step h/c_p, as `benches/step_nd.rs`.
+    let dt = 0.5 * s.grid().h_min() / material.p_modulus().sqrt();
+    let step = |s: &mut SolverNd<D>| s.try_step(dt).and_then(|_| s.accept());
+    if let Err(e) = step(&mut s) {
+        return eprintln!("step failed: {e}");
+    }
+    let (c0, w0) = (cpu_seconds(), std::time::Instant::now());
+    for _ in 0..steps {
+        if let Err(e) = step(&mut s) {
+            return eprintln!("step failed: {e}");
+        }
+    }
+    let (cpu, wall) = (cpu_seconds() - c0, w0.elapsed().as_secs_f64());
+    let n = (s.n_particles() * steps) as f64;
+    println!(
+        "{D}D {shape:?} {} particles: {:.2} M/s by CPU time, {:.2} M/s by wall",
+        s.n_particles(),
+        n / cpu / 1e6,
+        n / wall / 1e6
+    );
+}
+
+fn main() -> std::process::ExitCode {
+    const USAGE: &str = "usage: step_rate DIM(2|3) SHAPE(gimp|linear|bspline2) CELLS STEPS";
+    let a: Vec<String> = std::env::args().skip(1).collect();
+    let shape = match a.get(1).map(String::as_str) {
+        Some("gimp") => ShapeNd::Gimp,
+        Some("linear") => ShapeNd::Linear,
+        Some("bspline2") => ShapeNd::BSpline2,
+        _ => {
+            eprintln!("{USAGE}");
+            return std::process::ExitCode::from(2);
+        }
+    };
+    let number = |k: usize| {
+        a.get(k)
+            .and_then(|v| v.parse::<usize>().ok())
+            .filter(|&v| v > 0)
+    };
+    let (Some(cells), Some(steps)) = (number(2), number(3)) else {
+        eprintln!("{USAGE}");
+        return std::process::ExitCode::from(2);
+    };
+    match a.first().map(String::as_str) {
+        Some("2") => run::<2>(shape, cells, steps),
+        Some("3") => run::<3>(shape, cells, steps),
+        _ => {
+            eprintln!("{USAGE}");
+            return std::process::ExitCode::from(2);
+        }
+    }
+    std::process::ExitCode::SUCCESS
+}

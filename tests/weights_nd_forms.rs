@@ -1,0 +1,139 @@
+//! Capability: the reference solver's weights held as per-axis factors read the same, bit
+//! for bit, as the stored rows formed by `nd::fields::compute_weights` at the same
+//! positions — through `with_row`, `for_each_in_row` and the slice accessors — for every
+//! shape, periodic and fixed walls, in 2D and 3D; a caller that rewrites the gradients of
+//! factored weights through `storage_mut` keeps their weights; the factors take less memory.
+
+use mpm_dt::nd::fields::compute_weights;
+use mpm_dt::nd::{GridNd, MaterialNd, ParticlesNd, ShapeNd, SolverNd, Vector, WeightsNd};
+use mpm_dt::{Boundary, Dim, Dimension, Stepper, ViewNd};
+
+/// A jittered layout moved by a few steps, so that stencils straddle cells and walls.
+fn solver<const D: usize>(shape: ShapeNd, boundary: Boundary) -> SolverNd<D>
+where
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+{
+    let grid = GridNd::<D>::new([boundary; D], [5; D], [1.0; D]);
+    let material = MaterialNd::LinearElastic {
+        youngs_modulus: 1.0,
+        poisson_ratio: 0.3,
+    };
+    let mut particles = ParticlesNd::uniform(&grid, [2; D], 1.0, material);
+    let mut seed = 11u64;
+    let mut next = move || {
+        seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+    };
+    for p in 0..particles.len() {
+        for a in 0..D {
+            particles.x[p][a] += 0.4 * particles.domain[p][a] * next();
+            particles.v[p][a] = 0.05 * next();
+        }
+    }
+    let mut s = SolverNd::new(grid, shape, particles, Vector::<D>::zeros()).unwrap();
+    for _ in 0..3 {
+        s.try_step(0.01).unwrap();
+        s.accept().unwrap();
+    }
+    s
+}
+
+fn rows_of<const D: usize>(w: &WeightsNd<D>, p: usize) -> (Vec<u32>, Vec<u64>, Vec<u64>) {
+    w.with_row(p, |nodes, s, grad| {
+        (
+            nodes.to_vec(),
+            s.iter().map(|x| x.to_bits()).collect(),
+            grad.iter()
+                .flat_map(|g| g.iter().map(|x| x.to_bits()).collect::<Vec<_>>())
+                .collect(),
+        )
+    })
+}
+
+fn factors_match_stored_rows<const D: usize>(shape: ShapeNd, boundary: Boundary)
+where
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+{
+    let s = solver::<D>(shape, boundary);
+    let view = s.view();
+    let factored = view.weights;
+    assert!(
+        factored.factors().is_some(),
+        "the solver hands over factors"
+    );
+    let domain = vec![view.grid.h.map(|h| h / 2.0).into(); view.n_particles()];
+    let mut stored = WeightsNd::<D>::default();
+    compute_weights(view.grid, shape, view.x, &domain, &mut stored).unwrap();
+    assert!(stored.factors().is_none());
+    assert_eq!(factored.n_particles(), stored.n_particles());
+    for p in 0..view.n_particles() {
+        let want = rows_of(&stored, p);
+        assert_eq!(rows_of(factored, p), want, "{D}D {shape:?} particle {p}");
+        let mut visited = (Vec::new(), Vec::new(), Vec::new());
+        factored.for_each_in_row(p, |i, w, g| {
+            visited.0.push(i as u32);
+            visited.1.push(w.to_bits());
+            visited.2.extend(g.iter().map(|x| x.to_bits()));
+        });
+        assert_eq!(visited, want, "{D}D {shape:?} particle {p} (visitor)");
+        assert_eq!(factored.nodes_of(p), stored.nodes_of(p));
+        assert_eq!(
+            factored
+                .s_of(p)
+                .iter()
+                .map(|x| x.to_bits())
+                .collect::<Vec<_>>(),
+            want.1
+        );
+    }
+    // The factors are the smaller form for 3-node stencils (the linear hat's 2D row of 4
+    // entries is about their size).
+    let fresh = solver::<D>(shape, boundary);
+    let fresh_bytes = fresh.view().weights.bytes_per_particle();
+    if shape.nodes_per_axis() == 3 {
+        assert!(
+            fresh_bytes < stored.bytes_per_particle(),
+            "{fresh_bytes} B against {} B stored",
+            stored.bytes_per_particle()
+        );
+    }
+    // Reading slices formed the rows, at the stored form's memory.
+    assert_eq!(
+        factored.bytes_per_particle(),
+        fresh_bytes + stored.bytes_per_particle()
+    );
+    // Rewriting the gradients in place keeps the weights (the MLS recipe).
+    let mut w = fresh.view().weights.clone();
+    let n = w.n_particles();
+    let before = rows_of(&w, 0).1;
+    let (_, s_rows, grad) = w.storage_mut(n);
+    assert_eq!(s_rows[0].to_bits(), before[0]);
+    grad.iter_mut().for_each(|g| *g *= 2.0);
+    assert!(w.factors().is_none());
+    assert_eq!(rows_of(&w, 0).1, before);
+}
+
+#[test]
+fn factors_read_as_the_stored_rows_in_2d() {
+    for (shape, boundary) in [
+        (ShapeNd::Gimp, Boundary::Fixed),
+        (ShapeNd::Gimp, Boundary::Periodic),
+        (ShapeNd::Linear, Boundary::Fixed),
+        (ShapeNd::BSpline2, Boundary::Periodic),
+    ] {
+        factors_match_stored_rows::<2>(shape, boundary);
+    }
+}
+
+#[test]
+fn factors_read_as_the_stored_rows_in_3d() {
+    for (shape, boundary) in [
+        (ShapeNd::Gimp, Boundary::Fixed),
+        (ShapeNd::Linear, Boundary::Periodic),
+        (ShapeNd::BSpline2, Boundary::Periodic),
+    ] {
+        factors_match_stored_rows::<3>(shape, boundary);
+    }
+}
