@@ -218,8 +218,8 @@ fn rtol_alone_tightens_the_limit() {
     let steps = |temporal: &str| {
         let scenario = Scenario::from_json(r#"{"cells": 40, "t_end": 1.0}"#).unwrap();
         let mut solver = scenario.build().unwrap();
-        let config = ControllerConfig::from_json(&format!(r#"{{"temporal": {temporal}}}"#))
-            .unwrap();
+        let config =
+            ControllerConfig::from_json(&format!(r#"{{"temporal": {temporal}}}"#)).unwrap();
         let mut controller = Controller::standard(config).unwrap();
         let mut dts = Vec::new();
         controller
