@@ -4,11 +4,13 @@
 //! changes what a 2D run does.
 
 use mpm_dt::controller::{ConfigError, Controller, ControllerConfig, ControllerError, Decision};
-use mpm_dt::limits_nd::element_bound::element_bound;
 use mpm_dt::limits_nd::{standard_limits, STABILITY};
-use mpm_dt::nd::{GridNd, MaterialNd, ParticlesNd, ShapeNd, SolverNd, SummaryNd, Vector};
-use mpm_dt::reduce::SingleProcess;
-use mpm_dt::{Boundary, StepError, Stepper, ViewNd};
+use mpm_dt::nd::{GridNd, MaterialNd, ParticlesNd, ShapeNd, SolverNd, Vector};
+use mpm_dt::Boundary;
+
+#[path = "common/opt_in.rs"]
+mod opt_in;
+use opt_in::OptIn;
 
 /// `{"<outer>": {"<inner>": value}}` parsed and validated (no dimension yet).
 fn config(json: &str) -> ControllerConfig {
@@ -167,81 +169,33 @@ fn out_of_range_stability_nd_fields_name_their_path() {
     }
 }
 
-/// A jittered, neo-Hookean GIMP block moving fast across a periodic grid (the motion
-/// guard, the moduli and the nodal masses all change), as the reference solver or
-/// opting in with the element bound from its "own pass" (the library's function).
-struct Block {
-    solver: SolverNd<2>,
-    opt_in: bool,
-}
-
-impl Block {
-    fn new(opt_in: bool) -> Self {
-        let grid = GridNd::<2>::new([Boundary::Periodic; 2], [8, 8], [1.0, 1.0]);
-        let material = MaterialNd::NeoHookean {
-            youngs_modulus: 1.0,
-            poisson_ratio: 0.3,
-        };
-        let mut particles = ParticlesNd::uniform(&grid, [2, 2], 1.0, material);
-        let mut s: u64 = 7;
-        let mut next = move || {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        };
-        for p in 0..particles.len() {
-            let x = particles.x[p];
-            for a in 0..2 {
-                particles.x[p][a] += 0.3 * particles.domain[p][a] * next();
-            }
-            particles.v[p][0] = 0.2 + 0.1 * (2.0 * std::f64::consts::PI * x[1]).sin();
-            particles.v[p][1] = 0.1 * (2.0 * std::f64::consts::PI * x[0]).sin();
+/// A jittered, neo-Hookean GIMP block moving across a periodic grid (the motion guard, the
+/// moduli and the nodal masses all change), as the reference solver or opting in with the
+/// element bound from its "own pass" (the library's function).
+fn block(opt_in: bool) -> OptIn {
+    let grid = GridNd::<2>::new([Boundary::Periodic; 2], [8, 8], [1.0, 1.0]);
+    let material = MaterialNd::NeoHookean {
+        youngs_modulus: 1.0,
+        poisson_ratio: 0.3,
+    };
+    let mut particles = ParticlesNd::uniform(&grid, [2, 2], 1.0, material);
+    let mut s: u64 = 7;
+    let mut next = move || {
+        s = s
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+    };
+    for p in 0..particles.len() {
+        let x = particles.x[p];
+        for a in 0..2 {
+            particles.x[p][a] += 0.3 * particles.domain[p][a] * next();
         }
-        let solver = SolverNd::new(grid, ShapeNd::Gimp, particles, Vector::<2>::zeros()).unwrap();
-        Self { solver, opt_in }
+        particles.v[p][0] = 0.2 + 0.1 * (2.0 * std::f64::consts::PI * x[1]).sin();
+        particles.v[p][1] = 0.1 * (2.0 * std::f64::consts::PI * x[0]).sin();
     }
-
-    fn with_bound<'a>(&self, view: ViewNd<'a, 2>) -> ViewNd<'a, 2> {
-        if !self.opt_in {
-            return view;
-        }
-        let bound = element_bound(&view, &SingleProcess).lambda;
-        ViewNd {
-            summary: view.summary.map(|s| SummaryNd {
-                element_bound: Some(bound),
-                ..s
-            }),
-            ..view
-        }
-    }
-}
-
-impl Stepper<2> for Block {
-    fn time(&self) -> f64 {
-        self.solver.time()
-    }
-    fn step_count(&self) -> u64 {
-        self.solver.step_count()
-    }
-    fn try_step(&mut self, dt: f64) -> Result<(), StepError> {
-        self.solver.try_step(dt)
-    }
-    fn accept(&mut self) -> Result<(), StepError> {
-        self.solver.accept()
-    }
-    fn reject(&mut self) {
-        self.solver.reject()
-    }
-    fn view(&self) -> ViewNd<'_, 2> {
-        self.with_bound(self.solver.view())
-    }
-    fn trial_view(&self) -> Option<ViewNd<'_, 2>> {
-        self.solver.trial_view().map(|v| self.with_bound(v))
-    }
-    fn provide_summary(&mut self, on: bool) -> bool {
-        self.solver.provide_summary(on)
-    }
+    let solver = SolverNd::new(grid, ShapeNd::Gimp, particles, Vector::<2>::zeros()).unwrap();
+    OptIn { solver, on: opt_in }
 }
 
 /// What a controlled run of the block did: every decision's step, outcome and the
@@ -249,7 +203,7 @@ impl Stepper<2> for Block {
 fn run(c: &ControllerConfig, opt_in: bool, t_end: f64) -> Vec<String> {
     let limits = standard_limits::<2>(c, Vector::<2>::zeros());
     let mut controller = Controller::<2>::new(c.clone(), limits).unwrap();
-    let mut block = Block::new(opt_in);
+    let mut block = block(opt_in);
     let mut log = Vec::new();
     let mut record = |d: &Decision| {
         let stability: Vec<String> = d

@@ -7,10 +7,14 @@ use mpm_dt::controller::{Controller, ControllerConfig, Outcome};
 use mpm_dt::limits_nd::element_bound::element_bound;
 use mpm_dt::limits_nd::stiffness::dense_lambda_max;
 use mpm_dt::limits_nd::{standard_limits, StabilityNd, StabilityNdConfig, STABILITY};
-use mpm_dt::nd::{GridNd, MaterialNd, ParticlesNd, ShapeNd, SolverNd, SummaryNd, Vector};
+use mpm_dt::nd::{GridNd, MaterialNd, ParticlesNd, ShapeNd, SolverNd, Vector};
 use mpm_dt::reduce::SingleProcess;
-use mpm_dt::{Boundary, Dim, Dimension, StepError, Stepper, ViewNd};
+use mpm_dt::{Boundary, Dim, Dimension, Stepper, ViewNd};
 use proptest::prelude::*;
+
+#[path = "common/opt_in.rs"]
+mod opt_in;
+use opt_in::OptIn;
 
 /// A jittered layout with seeded random velocities and moduli per particle.
 fn layout<const D: usize>(
@@ -136,50 +140,6 @@ fn controlled_steps_stay_below_the_frozen_particle_limit() {
     }
 }
 
-/// The reference solver, opting in: its views carry the element bound (computed here by
-/// the library's own function, so the numbers are the ones the generic path computes).
-struct OptIn(SolverNd<2>);
-
-impl OptIn {
-    fn with_bound<'a>(&self, view: ViewNd<'a, 2>) -> ViewNd<'a, 2> {
-        let bound = element_bound(&view, &SingleProcess).lambda;
-        ViewNd {
-            summary: view.summary.map(|s| SummaryNd {
-                element_bound: Some(bound),
-                ..s
-            }),
-            ..view
-        }
-    }
-}
-
-impl Stepper<2> for OptIn {
-    fn time(&self) -> f64 {
-        self.0.time()
-    }
-    fn step_count(&self) -> u64 {
-        self.0.step_count()
-    }
-    fn try_step(&mut self, dt: f64) -> Result<(), StepError> {
-        self.0.try_step(dt)
-    }
-    fn accept(&mut self) -> Result<(), StepError> {
-        self.0.accept()
-    }
-    fn reject(&mut self) {
-        self.0.reject()
-    }
-    fn view(&self) -> ViewNd<'_, 2> {
-        self.with_bound(self.0.view())
-    }
-    fn trial_view(&self) -> Option<ViewNd<'_, 2>> {
-        self.0.trial_view().map(|v| self.with_bound(v))
-    }
-    fn provide_summary(&mut self, on: bool) -> bool {
-        self.0.provide_summary(on)
-    }
-}
-
 /// The accepted steps of a controlled run with the stability limit set by `stability`.
 fn steps_of(stepper: &mut dyn Stepper<2>, stability: StabilityNdConfig) -> (Vec<f64>, u64) {
     let config = ControllerConfig::default();
@@ -223,7 +183,13 @@ fn opting_in_takes_the_generic_paths_steps() {
     };
     let make = || layout::<2>(8, ShapeNd::Gimp, Boundary::Periodic, 0.3, 0.3, 11);
     let (generic, generic_bound) = steps_of(&mut make(), same_policy.clone());
-    let (opted, opted_bound) = steps_of(&mut OptIn(make()), same_policy);
+    let (opted, opted_bound) = steps_of(
+        &mut OptIn {
+            solver: make(),
+            on: true,
+        },
+        same_policy,
+    );
     assert!(
         generic_bound > 0,
         "the bound was never stepped on: the test is vacuous"
