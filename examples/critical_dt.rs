@@ -32,7 +32,8 @@
 //!   where it is not, the bisection's answer depends on its bracket).
 //!
 //! Above 10 000 particles `bound58` and `dt_empirical` are `null` and `skipped` says why:
-//! their runs cost particles × steps, and the tool answers in seconds on any scenario;
+//! their runs cost particles × steps (the bisection and the scan about 45 runs of 4000
+//! steps: seconds on small layouts, a minute or two near the limit);
 //! above the dense limit `skipped` also names the dense columns left `null`. In
 //! 2D and 3D the dense check, the full map and the bisection have size limits of their own
 //! (`limits_nd::critical`, `limits_nd::full_map`), and `skipped` names each of those three
@@ -256,7 +257,7 @@ fn run(args: &Args) -> Result<Value, Box<dyn std::error::Error>> {
 
     // Real runs (eq 58's quarter period, the empirical bisection) cost in proportion to
     // particles × steps: above RUN_LIMIT particles they are skipped, so that the tool
-    // answers in seconds on any scenario (the columns are `null`).
+    // answers in minutes at most on any scenario (the columns are `null`).
     // The columns every table has; the real runs add theirs below.
     let c = h / dt_eq49;
     let mut table = json!({

@@ -25,9 +25,9 @@
 //! 0.7; `--alpha`), mpm-dt's standard controller with the scene's config (`mpm-dt
 //! default`, `rtol = atol_rel = 0.05` unless the scene sets them) and with its temporal
 //! tolerance set to each of `--tol` (default 0.01, 0.003, 0.001, 3·10⁻⁴, 10⁻⁴, 3·10⁻⁵,
-//! 10⁻⁵) — `rtol = atol_rel = tol`: the temporal error limit's weight is
-//! `atol_rel·‖u‖_∞ + rtol·|u_p|`, so tightening `rtol` alone leaves the `atol_rel` floor,
-//! which dominates wherever `|u_p|` is below the field's largest value.
+//! 10⁻⁵) — `rtol = atol_rel = tol` (the temporal error limit's weight is
+//! `atol_rel·‖u‖_∞ + rtol·|u_p|`; `atol_rel` follows `rtol` unless a scene sets it, and is
+//! set here too so that a scene's own `atol_rel` cannot hold the points).
 //! The **wall time** is the median of `--repeat` (default 3) timed runs of each point,
 //! interleaved (each round visits every point, in reversed order every other round); the
 //! runs are deterministic, so only their times differ.

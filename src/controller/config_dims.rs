@@ -61,15 +61,17 @@ impl ControllerConfig {
                 return refuse(field, ONE_D_GROWTH);
             }
             // A Rust caller may set `stability_nd.safety`; the limit uses `stability.safety`.
+            // (Without the limit, `stability: null`, neither is used.)
             let nd = self.stability_nd.safety;
-            let shared = self.stability.as_ref().map(|s| s.safety);
-            if nd != StabilityNdConfig::default().safety && Some(nd) != shared {
-                return Err(ConfigError::Inconsistent {
-                    field: "stability_nd.safety",
-                    value: nd,
-                    other: "stability.safety",
-                    other_value: shared.unwrap_or(f64::NAN),
-                });
+            if let Some(shared) = self.stability.as_ref().map(|s| s.safety) {
+                if nd != StabilityNdConfig::default().safety && nd != shared {
+                    return Err(ConfigError::Inconsistent {
+                        field: "stability_nd.safety",
+                        value: nd,
+                        other: "stability.safety",
+                        other_value: shared,
+                    });
+                }
             }
         }
         Ok(())

@@ -89,7 +89,7 @@ impl TemporalErrorConfig {
             "temporal.rtol",
             self.rtol,
             self.rtol + self.atol_rel() > 0.0,
-            "> 0 when atol_rel = 0",
+            "> 0 when atol_rel = 0 (atol_rel follows rtol unless set)",
         )
     }
 }

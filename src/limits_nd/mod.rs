@@ -92,7 +92,7 @@ where
         let growth = &config.growth;
         limits.push(Box::new(GrowthNd::new(
             gravity,
-            (growth.windows * growth.window) as usize,
+            growth.windows as usize * growth.window as usize,
             growth.energy_tol,
         )));
     }

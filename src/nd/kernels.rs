@@ -65,15 +65,15 @@ fn axis_factors<const D: usize>(
         f.s = st.s;
         f.d = st.d;
         if grid.boundary[a] == Boundary::Periodic {
-            // One wrap for the first node; the next ones wrap by a comparison.
+            // One wrap for the first node; the next ones wrap by a comparison (a loop: an
+            // axis of fewer cells than the stencil's nodes wraps more than once).
             let n = grid.cells[a];
             let first = st.first.rem_euclid(n as i64) as usize;
             for k in 0..n_axis {
-                let i = if first + k >= n {
-                    first + k - n
-                } else {
-                    first + k
-                };
+                let mut i = first + k;
+                while i >= n {
+                    i -= n;
+                }
                 f.offset[k] = (i * strides[a]) as u32;
             }
             continue;

@@ -171,14 +171,14 @@ impl<const D: usize> WeightsNd<D> {
 
     /// Mutable access to the per-axis factors of `n_particles` particles with `per_axis`
     /// nodes per axis, for an in-place refill; the stored rows are dropped. `None` (and
-    /// nothing changed) unless the row width is `per_axis^D ≤ 27` (the form covers the
-    /// stencils of at most 3 nodes per axis in at most 3 dimensions).
+    /// nothing changed) unless `per_axis` is 2 or 3 and the row width is `per_axis^D ≤ 27`
+    /// (the form covers the stencils of 2 or 3 nodes per axis in at most 3 dimensions).
     pub(crate) fn factors_mut(
         &mut self,
         n_particles: usize,
         per_axis: usize,
     ) -> Option<&mut Vec<[AxisFactors; D]>> {
-        if !(1..=3).contains(&per_axis)
+        if !(2..=3).contains(&per_axis)
             || per_axis.checked_pow(D as u32) != Some(self.width)
             || self.width > MAX_FORMED_ROW
         {

@@ -55,21 +55,17 @@ pub(super) fn check_rows<const D: usize, R: Rows<D>>(rows: &R) -> Result<(), Vie
     let period = rows.period();
     let half: [f64; D] = std::array::from_fn(|a| period[a].map_or(f64::INFINITY, |l| 0.5 * l));
     let along: [bool; D] = std::array::from_fn(|a| rows.complete_along(a));
+    let out_of_range = |p: usize, node: u32| ViewError::NodeOutOfRange {
+        array: "weights.nodes",
+        index: p,
+        node: node as usize,
+        n_nodes,
+    };
     for p in 0..rows.n_particles() {
-        let bad = rows.with_row(p, |nodes, _, _| {
-            nodes.iter().find(|&&i| i as usize >= n_nodes).copied()
-        });
-        if let Some(node) = bad {
-            return Err(ViewError::NodeOutOfRange {
-                array: "weights.nodes",
-                index: p,
-                node: node as usize,
-                n_nodes,
-            });
-        }
-        let sums = row_sums(rows, p, &period, &half, false);
+        // The node range is checked in the same visit of the row as the sums.
+        let sums = row_sums(rows, p, &period, &half, false).map_err(|n| out_of_range(p, n))?;
         if !passes(&sums, &along, false) {
-            let sums = row_sums(rows, p, &period, &half, true);
+            let sums = row_sums(rows, p, &period, &half, true).map_err(|n| out_of_range(p, n))?;
             judge(rows, p, &sums, &along)?;
         }
     }
@@ -77,6 +73,7 @@ pub(super) fn check_rows<const D: usize, R: Rows<D>>(rows: &R) -> Result<(), Vie
 }
 
 /// The sums of particle `p`'s row; the magnitudes of the moment terms if `magnitudes`.
+/// `Err(node)`: the row refers to a node past the grid's (nothing summed).
 #[inline]
 fn row_sums<const D: usize, R: Rows<D>>(
     rows: &R,
@@ -84,8 +81,12 @@ fn row_sums<const D: usize, R: Rows<D>>(
     period: &[Option<f64>; D],
     half: &[f64; D],
     magnitudes: bool,
-) -> Sums<D> {
+) -> Result<Sums<D>, u32> {
+    let n_nodes = rows.n_nodes();
     rows.with_row(p, |nodes, s, grad| {
+        if let Some(&bad) = nodes.iter().find(|&&i| i as usize >= n_nodes) {
+            return Err(bad);
+        }
         let x = rows.particle(p);
         let mut sums = Sums {
             s: 0.0,
@@ -117,7 +118,7 @@ fn row_sums<const D: usize, R: Rows<D>>(
                 }
             }
         }
-        sums
+        Ok(sums)
     })
 }
 
