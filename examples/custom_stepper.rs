@@ -214,7 +214,7 @@ impl Stepper for UserMpm {
             if f[p] <= 0.0 {
                 return Err(StepError::Inverted {
                     index: p,
-                    f: f[p],
+                    det_f: f[p],
                     t: c.t,
                     step: c.step,
                     dt,

@@ -127,11 +127,13 @@ pub enum StepError {
         dt: f64,
     },
     /// A particle left a non-periodic domain.
-    #[error("particle {index} left the domain (x = {}) in the trial from t = {} (step {step}) with dt = {}", Num(*x), Num(*t), Num(*dt))]
+    #[error("particle {index} left the domain along axis {axis} (coordinate {}) in the trial from t = {} (step {step}) with dt = {}", Num(*x), Num(*t), Num(*dt))]
     OutOfDomain {
         /// Particle index.
         index: usize,
-        /// Its trial position.
+        /// The axis along which it left (0 in 1D).
+        axis: usize,
+        /// Its trial coordinate along that axis.
         x: f64,
         /// Time of the committed state.
         t: f64,
@@ -141,12 +143,12 @@ pub enum StepError {
         dt: f64,
     },
     /// A deformation gradient became non-positive (material inverted).
-    #[error("particle {index} inverted (F = {}) in the trial from t = {} (step {step}) with dt = {}", Num(*f), Num(*t), Num(*dt))]
+    #[error("particle {index} inverted (det F = {}) in the trial from t = {} (step {step}) with dt = {}", Num(*det_f), Num(*t), Num(*dt))]
     Inverted {
         /// Particle index.
         index: usize,
-        /// Its trial deformation gradient.
-        f: f64,
+        /// `det F` of its trial deformation gradient (in 1D, `F` itself).
+        det_f: f64,
         /// Time of the committed state.
         t: f64,
         /// Number of accepted steps before the trial.

@@ -190,7 +190,7 @@ fn error_messages_print_numbers_short() {
     assert!(msg.contains("1e300"), "{msg}");
     let step = StepError::Inverted {
         index: 3,
-        f: 1.0 / 3.0,
+        det_f: 1.0 / 3.0,
         t: 2e200,
         step: 7,
         dt: 1e-200,

@@ -250,3 +250,27 @@ fn an_infinite_velocity_is_non_finite_not_a_panic() {
         );
     }
 }
+
+/// In 2D the out-of-domain error names the axis the particle left along and its
+/// coordinate there.
+#[test]
+fn leaving_a_2d_box_names_the_axis() {
+    use mpm_dt::nd::{GridNd, MaterialNd, ParticlesNd, ShapeNd, SolverNd, Vector};
+    let grid = GridNd::<2>::new([Boundary::Fixed; 2], [4, 4], [1.0, 1.0]);
+    let material = MaterialNd::LinearElastic {
+        youngs_modulus: 1.0,
+        poisson_ratio: 0.3,
+    };
+    let mut particles = ParticlesNd::uniform(&grid, [2, 2], 1.0, material);
+    for v in particles.v.iter_mut() {
+        v[1] = 50.0;
+    }
+    let mut s = SolverNd::new(grid, ShapeNd::Gimp, particles, Vector::<2>::zeros()).unwrap();
+    match s.try_step(0.1) {
+        Err(StepError::OutOfDomain { axis, x, .. }) => {
+            assert_eq!(axis, 1);
+            assert!(x > 1.0, "coordinate {x} is inside the box");
+        }
+        other => panic!("expected OutOfDomain, got {other:?}"),
+    }
+}

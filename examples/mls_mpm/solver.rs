@@ -331,7 +331,7 @@ impl MlsMpm {
             if s.j[p] <= 0.0 {
                 return Err(StepError::Inverted {
                     index: p,
-                    f: s.j[p],
+                    det_f: s.j[p],
                     t: c.t,
                     step: c.step,
                     dt,
@@ -348,10 +348,11 @@ impl MlsMpm {
             }
             let lo = h;
             let hi = 1.0 - h;
-            if s.x[p].iter().any(|&x| !(lo..=hi).contains(&x)) {
+            if let Some(axis) = (0..2).find(|&a| !(lo..=hi).contains(&s.x[p][a])) {
                 return Err(StepError::OutOfDomain {
                     index: p,
-                    x: s.x[p][0],
+                    axis,
+                    x: s.x[p][axis],
                     t: c.t,
                     step: c.step,
                     dt,

@@ -206,17 +206,17 @@ impl FlipSolver {
             if j.is_nan() || j <= 0.0 {
                 return Err(StepError::Inverted {
                     index: p,
-                    f: j,
+                    det_f: j,
                     t: c.t,
                     step: c.step,
                     dt,
                 });
             }
-            if s.x[p].iter().any(|&x| !(lo..=hi).contains(&x)) {
-                let x = s.x[p][0];
+            if let Some(axis) = (0..2).find(|&a| !(lo..=hi).contains(&s.x[p][a])) {
                 return Err(StepError::OutOfDomain {
                     index: p,
-                    x,
+                    axis,
+                    x: s.x[p][axis],
                     t: c.t,
                     step: c.step,
                     dt,

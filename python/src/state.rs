@@ -27,9 +27,10 @@ pub enum Fault {
     NonFinite(&'static str, usize),
     /// `det F ≤ 0` (particle, det F): retryable in a trial.
     Inverted(usize, f64),
-    /// A particle whose stencil leaves the grid (particle, its first coordinate):
-    /// retryable in a trial.
-    OutOfGrid(usize, f64),
+    /// A particle whose stencil leaves the grid (particle, the axis along which it lies
+    /// outside the grid's box — 0 if it does not —, its coordinate there): retryable in a
+    /// trial.
+    OutOfGrid(usize, usize, f64),
     /// An invalid dict (or a Python error while reading it): never retried.
     Invalid(PyErr),
 }
@@ -47,8 +48,8 @@ impl Fault {
             Fault::Invalid(e) => return e,
             Fault::NonFinite(field, p) => format!("non-finite {field} at particle {p}"),
             Fault::Inverted(p, j) => format!("det F = {j} <= 0 at particle {p}"),
-            Fault::OutOfGrid(p, x) => {
-                format!("particle {p} (x[0] = {x}) has nodes outside the grid")
+            Fault::OutOfGrid(p, a, x) => {
+                format!("particle {p} (x[{a}] = {x}) has nodes outside the grid")
             }
         };
         state_error(py, format!("{what}: {msg}"))
@@ -367,7 +368,15 @@ impl<const D: usize> StateNd<D> {
             &self.domain,
             &mut self.weights,
         )
-        .map_err(|p| Fault::OutOfGrid(p, self.x[p][0]))?;
+        .map_err(|p| {
+            let grid = &self.grid;
+            let outside = |a: usize| {
+                let lo = grid.origin[a];
+                !(lo..=lo + grid.length(a)).contains(&self.x[p][a])
+            };
+            let axis = (0..D).find(|&a| outside(a)).unwrap_or(0);
+            Fault::OutOfGrid(p, axis, self.x[p][axis])
+        })?;
         if self.mls {
             mls_gradients(&self.grid, &self.x, &mut self.weights);
         }

@@ -111,15 +111,16 @@ impl<'py, const D: usize> PyStepper<'py, D> {
                 step,
                 dt,
             },
-            Fault::Inverted(index, f) => StepError::Inverted {
+            Fault::Inverted(index, det_f) => StepError::Inverted {
                 index,
-                f,
+                det_f,
                 t,
                 step,
                 dt,
             },
-            Fault::OutOfGrid(index, x) => StepError::OutOfDomain {
+            Fault::OutOfGrid(index, axis, x) => StepError::OutOfDomain {
                 index,
+                axis,
                 x,
                 t,
                 step,

@@ -331,13 +331,14 @@ impl Stepper for ReferenceStepper {
                     },
                     Failure::Inverted { index, f } => StepError::Inverted {
                         index,
-                        f,
+                        det_f: f,
                         t,
                         step,
                         dt,
                     },
                     Failure::OutOfDomain { index, x } => StepError::OutOfDomain {
                         index,
+                        axis: 0,
                         x,
                         t,
                         step,

@@ -179,8 +179,8 @@ pub(super) fn sum_nodal<const D: usize>(
 pub(super) enum ParticleFault {
     /// A non-finite value in this field.
     NonFinite(&'static str, usize),
-    /// Left a fixed box (particle, coordinate).
-    OutOfDomain(usize, f64),
+    /// Left a fixed box (particle, axis, coordinate along it).
+    OutOfDomain(usize, usize, f64),
     /// `det F ≤ 0` (particle, det F).
     Inverted(usize, f64),
 }
@@ -269,7 +269,7 @@ pub(super) fn grid_to_particle<const D: usize>(
                     let slack = 0.5 * grid.h[a];
                     if x[a] < lo || x[a] > lo + len {
                         if !(lo - slack..=lo + len + slack).contains(&x[a]) && x[a].is_finite() {
-                            return Err(ParticleFault::OutOfDomain(p, x[a]));
+                            return Err(ParticleFault::OutOfDomain(p, a, x[a]));
                         }
                         x[a] = x[a].clamp(lo, lo + len);
                         v[a] = 0.0;

@@ -7,6 +7,18 @@ use crate::stepper::StepError;
 use std::rc::Rc;
 
 impl<const D: usize> SolverNd<D> {
+    /// The axis along which position `x` lies outside the whole grid's box (the first such,
+    /// else 0): where a particle whose stencil left the stored nodes went.
+    fn axis_left(&self, x: &Vector<D>) -> usize {
+        let grid = self.whole();
+        (0..D)
+            .find(|&a| {
+                let lo = grid.origin[a];
+                !(lo..=lo + grid.length(a)).contains(&x[a])
+            })
+            .unwrap_or(0)
+    }
+
     /// Computes the trial state of step `dt` into the trial buffer. In a split run every
     /// process makes the same exchanges in the same order, also when its own part fails:
     /// migration (grid-decomposed), the nodal sums, the whole run's totals.
@@ -64,16 +76,17 @@ impl<const D: usize> SolverNd<D> {
                 step,
                 dt,
             }),
-            Err(ParticleFault::OutOfDomain(index, x)) => Err(StepError::OutOfDomain {
+            Err(ParticleFault::OutOfDomain(index, axis, x)) => Err(StepError::OutOfDomain {
                 index,
+                axis,
                 x,
                 t,
                 step,
                 dt,
             }),
-            Err(ParticleFault::Inverted(index, f)) => Err(StepError::Inverted {
+            Err(ParticleFault::Inverted(index, det_f)) => Err(StepError::Inverted {
                 index,
-                f,
+                det_f,
                 t,
                 step,
                 dt,
@@ -86,6 +99,7 @@ impl<const D: usize> SolverNd<D> {
                 // It jumped past the neighbouring slab: a blow-up, as leaving the box is.
                 result = Err(StepError::OutOfDomain {
                     index,
+                    axis: D - 1,
                     x: trial.x[index][D - 1],
                     t,
                     step,
@@ -108,12 +122,16 @@ impl<const D: usize> SolverNd<D> {
             trial.summary = None;
         }
         let result = result.and_then(|_| {
-            derived.map_err(|index| StepError::OutOfDomain {
-                index,
-                x: trial.x[index][0],
-                t,
-                step,
-                dt,
+            derived.map_err(|index| {
+                let axis = self.axis_left(&trial.x[index]);
+                StepError::OutOfDomain {
+                    index,
+                    axis,
+                    x: trial.x[index][axis],
+                    t,
+                    step,
+                    dt,
+                }
             })
         });
         trial.t = t + dt;
