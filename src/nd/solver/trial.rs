@@ -68,31 +68,7 @@ impl<const D: usize> SolverNd<D> {
             self.summarize,
         );
         let (t, step) = (c.t, c.step);
-        let mut result = match fault {
-            Err(ParticleFault::NonFinite(field, index)) => Err(StepError::NonFinite {
-                field,
-                index,
-                t,
-                step,
-                dt,
-            }),
-            Err(ParticleFault::OutOfDomain(index, axis, x)) => Err(StepError::OutOfDomain {
-                index,
-                axis,
-                x,
-                t,
-                step,
-                dt,
-            }),
-            Err(ParticleFault::Inverted(index, det_f)) => Err(StepError::Inverted {
-                index,
-                det_f,
-                t,
-                step,
-                dt,
-            }),
-            Ok(summary) => Ok(summary),
-        };
+        let mut result = fault.map_err(|f| step_error(f, t, step, dt));
         if let Some(slab) = self.split.slab() {
             let moved = crate::nd::migration::migrate(slab, &mut trial, result.is_err());
             if let (Ok(_), Err(index)) = (&result, moved) {
@@ -139,5 +115,33 @@ impl<const D: usize> SolverNd<D> {
         self.trial = trial;
         self.has_trial = result.is_ok();
         result
+    }
+}
+
+/// The trial error of a particle's fault in the step of `dt` from `(t, step)`.
+fn step_error(fault: ParticleFault, t: f64, step: u64, dt: f64) -> StepError {
+    match fault {
+        ParticleFault::NonFinite(field, index) => StepError::NonFinite {
+            field,
+            index,
+            t,
+            step,
+            dt,
+        },
+        ParticleFault::OutOfDomain(index, axis, x) => StepError::OutOfDomain {
+            index,
+            axis,
+            x,
+            t,
+            step,
+            dt,
+        },
+        ParticleFault::Inverted(index, det_f) => StepError::Inverted {
+            index,
+            det_f,
+            t,
+            step,
+            dt,
+        },
     }
 }
