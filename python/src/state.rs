@@ -369,12 +369,7 @@ impl<const D: usize> StateNd<D> {
             &mut self.weights,
         )
         .map_err(|p| {
-            let grid = &self.grid;
-            let outside = |a: usize| {
-                let lo = grid.origin[a];
-                !(lo..=lo + grid.length(a)).contains(&self.x[p][a])
-            };
-            let axis = (0..D).find(|&a| outside(a)).unwrap_or(0);
+            let axis = self.grid.axis_outside(&self.x[p]).unwrap_or(0);
             Fault::OutOfGrid(p, axis, self.x[p][axis])
         })?;
         if self.mls {

@@ -49,6 +49,12 @@ impl<const D: usize> GridNd<D> {
         self.cells[a] as f64 * self.h[a]
     }
 
+    /// The first axis along which `x` lies outside the box `[origin, origin + length]`,
+    /// if any (where a particle whose stencil left the stored nodes went).
+    pub fn axis_outside(&self, x: &Vector<D>) -> Option<usize> {
+        (0..D).find(|&a| !(self.origin[a]..=self.origin[a] + self.length(a)).contains(&x[a]))
+    }
+
     /// Smallest cell size over the axes.
     pub fn h_min(&self) -> f64 {
         self.h.iter().copied().fold(f64::INFINITY, f64::min)

@@ -7,18 +7,6 @@ use crate::stepper::StepError;
 use std::rc::Rc;
 
 impl<const D: usize> SolverNd<D> {
-    /// The axis along which position `x` lies outside the whole grid's box (the first such,
-    /// else 0): where a particle whose stencil left the stored nodes went.
-    fn axis_left(&self, x: &Vector<D>) -> usize {
-        let grid = self.whole();
-        (0..D)
-            .find(|&a| {
-                let lo = grid.origin[a];
-                !(lo..=lo + grid.length(a)).contains(&x[a])
-            })
-            .unwrap_or(0)
-    }
-
     /// Computes the trial state of step `dt` into the trial buffer. In a split run every
     /// process makes the same exchanges in the same order, also when its own part fails:
     /// migration (grid-decomposed), the nodal sums, the whole run's totals.
@@ -99,7 +87,7 @@ impl<const D: usize> SolverNd<D> {
         }
         let result = result.and_then(|_| {
             derived.map_err(|index| {
-                let axis = self.axis_left(&trial.x[index]);
+                let axis = self.whole().axis_outside(&trial.x[index]).unwrap_or(0);
                 StepError::OutOfDomain {
                     index,
                     axis,
