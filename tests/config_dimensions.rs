@@ -67,7 +67,7 @@ const ONE_D_ONLY: [(&str, &str); 9] = [
     ),
 ];
 
-const ND_ONLY: [(&str, &str); 13] = [
+const ND_ONLY: [(&str, &str); 14] = [
     (
         r#"{"stability_nd": {"refresh_cells": 0.05}}"#,
         "stability_nd.refresh_cells",
@@ -112,6 +112,10 @@ const ND_ONLY: [(&str, &str); 13] = [
     (
         r#"{"stability_nd": {"product_cost": 100.0}}"#,
         "stability_nd.product_cost",
+    ),
+    (
+        r#"{"stability_nd": {"bound_drift": -1.0}}"#,
+        "stability_nd.bound_drift",
     ),
     (r#"{"growth": {"energy_tol": 0.01}}"#, "growth.energy_tol"),
 ];
@@ -228,26 +232,39 @@ fn run(c: &ControllerConfig, opt_in: bool, t_end: f64) -> Vec<String> {
 
 /// Each 2D/3D stability setting, set against a config where it is consulted: the mass and
 /// diagonal settings act between the motion guard's refreshes, the bound's age in bound
-/// mode, the cost model where the stepper supplies the bound.
-const STABILITY_CHANGES: [(&str, &str); 12] = [
+/// mode, the cost model where the stepper supplies the bound. The moduli and diagonal
+/// thresholds, the raw bound's slack, age and cost model act with the calibrated bound
+/// off (`bound_drift` −1; with it on, `bound_drift` takes their place).
+const STABILITY_CHANGES: [(&str, &str); 14] = [
     (r#"{"refresh_cells": 0.05}"#, "{}"),
     (r#"{"refresh_mass": 1e-6}"#, "{}"),
-    (r#"{"refresh_modulus": 1e-4}"#, "{}"),
     (
-        r#"{"refresh_mass": 1e-6, "refresh_diagonal": 1e-6}"#,
-        r#"{"refresh_mass": 1e-6}"#,
+        r#"{"refresh_modulus": 1e-4, "bound_drift": -1.0}"#,
+        r#"{"bound_drift": -1.0}"#,
+    ),
+    (
+        r#"{"refresh_mass": 1e-6, "refresh_diagonal": 1e-6, "bound_drift": -1.0}"#,
+        r#"{"refresh_mass": 1e-6, "bound_drift": -1.0}"#,
     ),
     (r#"{"max_age": 1}"#, "{}"),
     (r#"{"tol": 0.2}"#, "{}"),
     (r#"{"max_iter": 2}"#, "{}"),
     (r#"{"margin": 1.5}"#, "{}"),
     (r#"{"transfer": {"apic": {"inertia": 0.25}}}"#, "{}"),
-    (r#"{"bound_slack": 10.0}"#, "{}"),
     (
-        r#"{"bound_slack": 10.0, "bound_age": 1}"#,
-        r#"{"bound_slack": 10.0}"#,
+        r#"{"bound_slack": 10.0, "bound_drift": -1.0}"#,
+        r#"{"bound_drift": -1.0}"#,
     ),
-    (r#"{"product_cost": 0.0}"#, "{}"),
+    (
+        r#"{"bound_slack": 10.0, "bound_age": 1, "bound_drift": -1.0}"#,
+        r#"{"bound_slack": 10.0, "bound_drift": -1.0}"#,
+    ),
+    (
+        r#"{"product_cost": 0.0, "bound_drift": -1.0}"#,
+        r#"{"bound_drift": -1.0}"#,
+    ),
+    (r#"{"bound_drift": 0.001}"#, "{}"),
+    (r#"{"bound_age": 2}"#, "{}"),
 ];
 
 #[test]

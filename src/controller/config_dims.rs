@@ -143,6 +143,7 @@ fn changed_nd_stability(c: &StabilityNdConfig) -> Option<&'static str> {
             "stability_nd.product_cost",
             c.product_cost != d.product_cost,
         ),
+        ("stability_nd.bound_drift", c.bound_drift != d.bound_drift),
     ]
     .into_iter()
     .find_map(|(field, changed)| changed.then_some(field))

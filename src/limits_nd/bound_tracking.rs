@@ -10,7 +10,49 @@
 //! every particle on its own and the top mode sits on the few particles of a splash; 1.3–3
 //! for GIMP bodies; 3–8 for 3D GIMP and B-spline waves.
 //!
-//! # The policy
+//! # The calibrated bound (the default under FLIP)
+//!
+//! At every Lanczos refresh the bound of the same state is evaluated beside the Lanczos
+//! value `λ_L`, `B_L ≥ λ_L`. Until the next refresh the limit proposes from
+//!
+//! ```text
+//! λ ≈ λ_L · max(r, B/B_L),      refreshing when B/B_L leaves [1/(1 + drift), 1 + drift]
+//! ```
+//!
+//! (`drift` = `bound_drift`, 0.5 by default; `r ≥ 1` the moduli's growth factor of the
+//! parent module). The element bound sees what moves `λmax` through single particles — a
+//! particle's moduli, volume and mass, its place in its cells — at no cost where the
+//! stepper supplies it, so the ratio `B/λ` measured by Lanczos is carried to the states
+//! after it instead of re-measured whenever particles move half a cell: on a body that
+//! translates or deforms smoothly `B` moves little, and the Lanczos value is scaled with
+//! it. A rise of `B` raises the estimate in proportion (conservative where the ratio holds;
+//! a mode that localises as `B` rises — a splash — makes the ratio fall, and a rise beyond
+//! `drift` refreshes); a fall of `B` leaves it where it was (never below `λ_L·r`) until a
+//! refresh. Refreshes also come after `bound_age` proposals (the cadence of SUNDIALS'
+//! LSRKStep, which re-estimates every 25 steps), and from the parent's mass, diagonal and
+//! moduli guards, whose thresholds are raised to `drift` here (their growth scales the
+//! estimate up to it).
+//!
+//! **What it assumes.** `B/λ` changes only where `B` changes. That is an interpretation,
+//! not a theorem: `λmax` of a uniform layout varies with the particles' offset in their
+//! cells (up to 1.49× with GIMP and 1.21× with B-splines within half a cell, in
+//! `tests/stability_tracking_nd.rs`) while `B` of many particles hardly does. Measured on
+//! that drifting block, the calibrated bound leaves the true `λmax` at most those same
+//! factors above the tracked one — the half-cell motion guard gave no better — with 6–7
+//! Lanczos runs in 400 steps instead of 17. The growth monitor is the net, as for the
+//! motion guard.
+//!
+//! **Where the stepper supplies `B`** the positions are not read at all (no motion guard);
+//! **on the generic path** `B` costs a pass over the weights, so the motion guard stays and
+//! calls for `B` instead of Lanczos: within `drift` its positions are re-anchored and the
+//! estimate scaled. On a grid split over processes a guard's call refreshes, as before.
+//!
+//! **Not under APIC.** The APIC gain is measured on the refresh's top mode; carrying it
+//! with a calibrated estimate let the mpm88 fluid grow (22 growth detections at every
+//! drift from 0.1 to 0.5, against none for FLIP's analysis of the same scene), so under
+//! APIC the raw-bound policy below applies.
+//!
+//! # The raw-bound policy (`bound_drift < 0`, or APIC)
 //!
 //! * At every Lanczos refresh the bound of the same state is evaluated too and their
 //!   ratio `q = B/λ` recorded. If `q ≤ 1 + bound_slack` the limit enters *bound mode*.
@@ -72,6 +114,13 @@ pub struct BoundTracking {
     pub lanczos_rate: Option<f64>,
     /// Refreshes since the bound was last evaluated beside one.
     pub refreshes_unlooked: u32,
+    /// The calibrated bound's reference: `(B, λ)` of the last Lanczos refresh, when the
+    /// calibrated policy is on and `B` was finite there.
+    pub reference: Option<(f64, f64)>,
+    /// `B/B_ref` at the last re-anchoring of the motion guard (1 at a refresh).
+    pub scale: f64,
+    /// Proposals made from the calibrated bound.
+    pub calibrated_proposals: u64,
 }
 
 impl BoundTracking {
@@ -146,6 +195,23 @@ impl BoundTracking {
             self.last_ratio = None;
         }
         self.active = ratio.is_finite() && ratio <= threshold;
+    }
+
+    /// The calibrated estimate `λ ≈ λ_L · B/B_L` (module docs) for the current `bound`,
+    /// `None` where `B` drifted by more than `drift` (relative, either way) from its value
+    /// at the refresh, or there is no reference (a refresh follows).
+    pub fn calibrated_scale(&self, bound: f64, drift: f64) -> Option<f64> {
+        let (b_ref, _) = self.reference?;
+        let s = bound / b_ref;
+        (s.is_finite() && s > 0.0 && s <= 1.0 + drift && s * (1.0 + drift) >= 1.0).then_some(s)
+    }
+
+    /// Records the reference of the calibrated bound at a refresh: `bound` beside the
+    /// Lanczos value `lambda`, or none where the bound is not a positive number.
+    pub fn calibrate(&mut self, lambda: f64, bound: f64) {
+        self.scale = 1.0;
+        self.active = false;
+        self.reference = (bound.is_finite() && bound > 0.0).then_some((bound, lambda));
     }
 
     /// Whether a bound met where the cached value `cached` went stale is tight enough to

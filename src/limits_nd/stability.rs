@@ -17,7 +17,14 @@
 //!
 //! and between refreshes proposes from the cached value, scaled for the moduli's growth.
 //!
-//! **Bound mode.** At every refresh the element bound `B ≥ λmax`
+//! **The calibrated bound** (the default under FLIP). At every refresh the element bound
+//! `B ≥ λmax` ([`super::element_bound`]) of the same state is evaluated too, and between
+//! refreshes the proposal is the Lanczos value scaled by `B`'s rise since then,
+//! `λ_L·max(r, B/B_L)`, until `B` has drifted by `bound_drift` or `bound_age` proposals
+//! have passed; the motion guard is then not read where the stepper supplies `B`, and on
+//! the generic path it calls for `B` instead of Lanczos ([`super::bound_tracking`]).
+//!
+//! **Bound mode** (with `bound_drift < 0`, and under APIC). At every refresh the element bound `B ≥ λmax`
 //! ([`super::element_bound`]) of the same state is evaluated too. Where it is close to the
 //! Lanczos value (within `1 + bound_slack`; where the stepper supplies `B` from its own
 //! pass, also wherever the Lanczos products it saves outweigh the shorter step), the next
@@ -80,6 +87,7 @@ use crate::dimension::{Dim, Dimension};
 use crate::limit::{LimitError, Metrics, Proposal, StepLimit};
 use crate::nd::{Vector, ViewNd};
 use crate::reduce::{Reduce, SingleProcess};
+use guard::Staleness;
 use std::rc::Rc;
 
 /// Name in logs: `"stability"`.
@@ -254,6 +262,7 @@ impl<const D: usize> StabilityNd<D> {
         self.lambda = Some(lambda);
         let threshold = self.bound_threshold(view);
         let look = bound.is_some()
+            || self.calibrating()
             || self.config.bound_slack >= 0.0
                 && self
                     .tracking
@@ -266,6 +275,9 @@ impl<const D: usize> StabilityNd<D> {
                     .bound_of(view, Self::agreement(&*self.reduce, view)),
             };
             self.tracking.after_refresh(lambda, bound, threshold);
+            if self.calibrating() {
+                self.tracking.calibrate(lambda, bound);
+            }
         } else {
             self.tracking.skipped_refresh();
         }
@@ -280,14 +292,55 @@ impl<const D: usize> StabilityNd<D> {
         // The smallest nodal mass first: a reduction every process makes, on every step.
         let m_min = self.smallest_node_mass(state);
         let mut diag = None;
-        let local = self.staleness(state, m_min, &mut diag);
+        let supplied = view_supplies_bound(state);
+        let calibrated = self.calibrating()
+            && self.tracking.reference.is_some()
+            && self.age < self.config.bound_age;
+        // With the bound supplied every step, the calibrated bound watches the layout and
+        // the positions are not read; on the generic path a particle's motion calls for
+        // the bound's pass, and on a split grid for a refresh, as before.
+        let local = self.staleness(
+            state,
+            m_min,
+            &mut diag,
+            !(calibrated && supplied),
+            calibrated,
+        );
+        let (growth, moved) = match local {
+            Staleness::Fresh(g) => (Some(g), false),
+            Staleness::Moved(g) => (Some(g), true),
+            Staleness::Stale => (None, false),
+        };
+        let moved_is_stale = moved && !(calibrated && state.split.is_none());
         // The processes of a split run agree: any stale part refreshes everywhere, and
         // the moduli growth is the largest of all (`crate::reduce`).
         let (neg_growth, stale) = Self::agreement(&*self.reduce, state)
-            .min_and_any(-local.unwrap_or(1.0), local.is_none());
+            .min_and_any(-growth.unwrap_or(1.0), growth.is_none() || moved_is_stale);
         let agreed = (!stale).then_some(-neg_growth);
+        let mut looked = None;
         if let (Some(growth), Some(cached)) = (agreed, self.lambda) {
-            return Ok((cached * growth, false));
+            if !(calibrated && (supplied || moved)) {
+                self.tracking.calibrated_proposals += u64::from(calibrated);
+                return Ok((cached * growth.max(self.tracking.scale), false));
+            }
+            let bound = self
+                .tracking
+                .bound_of(state, Self::agreement(&*self.reduce, state));
+            if let Some(s) = self
+                .tracking
+                .calibrated_scale(bound, self.config.bound_drift)
+            {
+                if moved {
+                    self.reanchor_positions(state);
+                    self.tracking.scale = s;
+                }
+                self.tracking.calibrated_proposals += 1;
+                return Ok((cached * growth.max(s), false));
+            }
+            looked = Some(bound);
+        }
+        if looked.is_some() {
+            return Ok((self.refresh(state, m_min, diag, looked)?, true));
         }
         if let Some(products) = self.last_products.filter(|_| self.age > 0) {
             // An interval between refreshes ended: what its refresh cost per proposal.
@@ -295,11 +348,11 @@ impl<const D: usize> StabilityNd<D> {
         }
         let threshold = self.bound_threshold(state);
         let look = self.age < self.config.bound_age
+            && !self.calibrating()
             && self.config.bound_slack >= 0.0
             && self
                 .tracking
                 .worth_a_look(threshold, view_supplies_bound(state));
-        let mut looked = None;
         if let Some(cached) = self.lambda.filter(|_| look) {
             let bound = self
                 .tracking
@@ -314,6 +367,12 @@ impl<const D: usize> StabilityNd<D> {
             looked = Some(bound);
         }
         Ok((self.refresh(state, m_min, diag, looked)?, true))
+    }
+
+    /// Whether the calibrated bound is on (`bound_drift ≥ 0`,
+    /// [`super::bound_tracking`]).
+    fn calibrating(&self) -> bool {
+        self.config.bound_drift >= 0.0 && self.config.transfer == TransferNd::Flip
     }
 
     /// The largest `B/λ` stepped on ([`BoundTracking::threshold`]).
@@ -365,6 +424,12 @@ impl<const D: usize> StabilityNd<D> {
             metrics.insert(
                 "bound_proposals".into(),
                 self.tracking.bound_proposals as f64,
+            );
+        }
+        if self.tracking.calibrated_proposals > 0 {
+            metrics.insert(
+                "calibrated_proposals".into(),
+                self.tracking.calibrated_proposals as f64,
             );
         }
         metrics.insert(crate::controller::metric::LAMBDA_MAX.into(), lambda);

@@ -58,6 +58,11 @@ pub struct StabilityNdConfig {
     /// bound pays (default 0.5: a product gathers and scatters over the stencils once, a
     /// step about twice; [`crate::limits_nd::bound_tracking`]).
     pub product_cost: f64,
+    /// Between Lanczos refreshes, track `λmax` by the element bound calibrated at the last
+    /// one, `λ ≈ λ_L · B/B_L`, while `B` stays within this relative drift of `B_L`
+    /// (default 0.5; negative: off, the raw-bound policy of `bound_slack` instead),
+    /// [`crate::limits_nd::bound_tracking`].
+    pub bound_drift: f64,
 }
 
 impl Default for StabilityNdConfig {
@@ -76,6 +81,7 @@ impl Default for StabilityNdConfig {
             bound_slack: 0.25,
             bound_age: 50,
             product_cost: 0.5,
+            bound_drift: 0.5,
         }
     }
 }
@@ -132,6 +138,12 @@ impl StabilityNdConfig {
             self.product_cost,
             self.product_cost.is_finite() && self.product_cost >= 0.0,
             "finite and >= 0",
+        )?;
+        check(
+            "stability_nd.bound_drift",
+            self.bound_drift,
+            self.bound_drift.is_finite(),
+            "finite (negative: no calibrated bound)",
         )
     }
 }

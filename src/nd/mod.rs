@@ -5,6 +5,7 @@
 //! Weights are tensor products of the 1D functions per axis,
 //! `S_ip = Π_a s_a(x_p,a − X_i,a)` and `∂_a S_ip = s'_a Π_{b≠a} s_b`.
 
+pub mod factor_metric;
 pub mod factors;
 pub mod fields;
 mod grid;

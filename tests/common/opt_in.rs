@@ -1,6 +1,8 @@
 //! [`OptIn`]: a 2D reference solver opting in to the stepper contract with the element
 //! bound of its own views (computed by the library's function, so the numbers are the
-//! ones the generic path computes). Shared by `tests/element_bound_nd.rs` and
+//! ones the generic path computes), or, when not opting in, handing over no bound and no
+//! speed-of-sound step at all (the generic path: the reference solver's own figures
+//! stripped from its summaries). Shared by `tests/element_bound_nd.rs` and
 //! `tests/config_dimensions.rs` (included by path).
 
 use mpm_dt::limits_nd::element_bound::element_bound;
@@ -16,13 +18,11 @@ pub struct OptIn {
 
 impl OptIn {
     fn with_bound<'a>(&self, view: ViewNd<'a, 2>) -> ViewNd<'a, 2> {
-        if !self.on {
-            return view;
-        }
-        let bound = element_bound(&view, &SingleProcess).lambda;
+        let bound = self.on.then(|| element_bound(&view, &SingleProcess).lambda);
         ViewNd {
             summary: view.summary.map(|s| SummaryNd {
-                element_bound: Some(bound),
+                element_bound: bound,
+                sound_unit_step: None,
                 ..s
             }),
             ..view

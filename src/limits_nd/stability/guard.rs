@@ -5,6 +5,18 @@ use super::StabilityNd;
 use crate::limits_nd::stiffness::diagonal_argmax;
 use crate::nd::{Vector, ViewNd};
 
+/// What the guard found against the analysed state.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) enum Staleness {
+    /// Close enough: the cached `λmax` times this factor (≥ 1, the moduli's growth).
+    Fresh(f64),
+    /// Some particle moved more than `refresh_cells` of a cell, nothing else is stale;
+    /// the moduli's growth factor as for [`Staleness::Fresh`].
+    Moved(f64),
+    /// The cached value must be recomputed.
+    Stale,
+}
+
 impl<const D: usize> StabilityNd<D> {
     /// The two eigenvalues of `V_p C_p` on symmetric tensors: `V(dλ_t + 2μ_t)` (volumetric)
     /// and `2Vμ_t` (deviatoric), the latter stored halved as `Vμ_t`.
@@ -29,8 +41,11 @@ impl<const D: usize> StabilityNd<D> {
             .map_or(view.n_particles(), |s| s.n_particles_total)
     }
 
-    /// `None` when the cached `λmax` must be recomputed, else the factor `r ≥ 1` it is
-    /// multiplied by for the moduli's growth since the refresh (module docs).
+    /// Whether the cached `λmax` must be recomputed ([`Staleness::Stale`]), or else the
+    /// factor `r ≥ 1` it is multiplied by for the moduli's growth since the refresh, and
+    /// whether some particle moved more than `refresh_cells` (module docs). With
+    /// `check_motion` false the positions are not read (the calibrated bound watches the
+    /// layout instead, [`crate::limits_nd::bound_tracking`]).
     /// `m_min` is the view's [`Self::smallest_node_mass`]; `diag` receives
     /// [`diagonal_argmax`] of the view when the check computes it (a refresh reuses it).
     pub(super) fn staleness(
@@ -38,25 +53,34 @@ impl<const D: usize> StabilityNd<D> {
         view: &ViewNd<'_, D>,
         m_min: f64,
         diag: &mut Option<(f64, usize)>,
-    ) -> Option<f64> {
+        check_motion: bool,
+        calibrated: bool,
+    ) -> Staleness {
         if self.lambda.is_none()
             || self.age >= self.config.max_age
             || self.x_ref.len() != Self::n_refs(view)
             || self.ritz.len() != view.n_nodes() * D
         {
-            return None;
+            return Staleness::Stale;
         }
-        let growth_limit = 1.0 + self.config.refresh_modulus;
+        // Under the calibrated bound a growth of the moduli or of the light nodes' diagonal
+        // up to `bound_drift` scales the cached value instead of refreshing it: a refresh
+        // costs several products, the scaling a slightly shorter step.
+        let loosen = |limit: f64| match calibrated {
+            true => limit.max(self.config.bound_drift),
+            false => limit,
+        };
+        let growth_limit = 1.0 + loosen(self.config.refresh_modulus);
         if m_min.is_infinite() {
             // No active node.
-            return None;
+            return Staleness::Stale;
         }
         if m_min < (1.0 - self.config.refresh_mass) * self.mass_ref {
             // A lighter node: refresh only if some node's diagonal of A grew (module docs).
             let d = diag.insert(diagonal_argmax(view, &*self.reduce)).0;
             let growth = d / self.diag_ref;
-            if growth.is_nan() || growth > 1.0 + self.config.refresh_diagonal {
-                return None;
+            if growth.is_nan() || growth > 1.0 + loosen(self.config.refresh_diagonal) {
+                return Staleness::Stale;
             }
             self.diag_growth = self.diag_growth.max(growth);
             self.mass_ref = m_min;
@@ -71,20 +95,24 @@ impl<const D: usize> StabilityNd<D> {
             _ => f64::INFINITY,
         });
         let mut growth: f64 = 1.0;
+        let mut moved = false;
         for p in 0..view.n_particles() {
             let key = Self::key(view, p);
-            let dx = view.x[p] - self.x_ref[key];
-            for a in 0..D {
-                if dx[a].abs() <= lim * h[a] {
-                    continue;
-                }
-                let d = if period[a].is_finite() {
-                    dx[a] - period[a] * (dx[a] / period[a]).round()
-                } else {
-                    dx[a]
-                };
-                if d.is_nan() || d.abs() > lim * h[a] {
-                    return None;
+            if check_motion && !moved {
+                let dx = view.x[p] - self.x_ref[key];
+                for a in 0..D {
+                    if dx[a].abs() <= lim * h[a] {
+                        continue;
+                    }
+                    let d = if period[a].is_finite() {
+                        dx[a] - period[a] * (dx[a] / period[a]).round()
+                    } else {
+                        dx[a]
+                    };
+                    if d.is_nan() {
+                        return Staleness::Stale;
+                    }
+                    moved |= d.abs() > lim * h[a];
                 }
             }
             let (bulk, shear) = Self::moduli(view, p);
@@ -100,11 +128,24 @@ impl<const D: usize> StabilityNd<D> {
             let r = r_bulk.max(r_shear);
             // NaN (a non-finite modulus) forces a refresh.
             if r.is_nan() || r > growth_limit {
-                return None;
+                return Staleness::Stale;
             }
             growth = growth.max(r);
         }
-        Some(growth.max(self.diag_growth))
+        let growth = growth.max(self.diag_growth);
+        if moved {
+            Staleness::Moved(growth)
+        } else {
+            Staleness::Fresh(growth)
+        }
+    }
+
+    /// Takes the current positions as the motion guard's reference, the moduli's
+    /// reference staying the refresh's (the calibrated bound re-anchored,
+    /// [`crate::limits_nd::bound_tracking`]; an undivided grid only).
+    pub(super) fn reanchor_positions(&mut self, view: &ViewNd<'_, D>) {
+        self.x_ref.clear();
+        self.x_ref.extend_from_slice(view.x);
     }
 
     /// Keeps the positions and moduli of the analysed state. On a decomposed grid the

@@ -11,6 +11,7 @@
 //! [`Stepper::reject`] drops the trial, so the committed state is never written by a trial
 //! and a rejection restores it bit for bit.
 
+mod own_bounds;
 mod setup;
 mod trial;
 
@@ -183,7 +184,12 @@ impl<const D: usize> SolverNd<D> {
             element_bound: None,
             sound_unit_step: None,
         };
-        self.whole_run_summary(summary)
+        let (element_bound, sound_unit_step) = self.own_bounds(s, false);
+        SummaryNd {
+            element_bound,
+            sound_unit_step,
+            ..self.whole_run_summary(summary)
+        }
     }
 
     /// In a grid-decomposed run the totals of every process (particles move between

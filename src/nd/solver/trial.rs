@@ -81,7 +81,13 @@ impl<const D: usize> SolverNd<D> {
                 element_bound: None,
                 sound_unit_step: None,
             });
-            trial.summary = Some(self.whole_run_summary(mine));
+            let failed = result.is_err() || derived.is_err();
+            let (element_bound, sound_unit_step) = self.own_bounds(&trial, failed);
+            trial.summary = Some(SummaryNd {
+                element_bound,
+                sound_unit_step,
+                ..self.whole_run_summary(mine)
+            });
         } else {
             trial.summary = None;
         }

@@ -1,0 +1,122 @@
+//! The gradient metric `H_p = Σ_i ∇S_ip ∇S_ipᵀ / S_ip` of the element bound
+//! ([`crate::limits_nd::element_bound`]) read off a particle's per-axis weight factors
+//! ([`super::factors`]) without forming its row: O(D·n) per particle instead of O(nⁿ).
+//!
+//! With `S = Π_c s_c` and `∂_a S = s'_a Π_{c≠a} s_c` summed over the whole tensor-product
+//! stencil,
+//!
+//! ```text
+//! H_aa = (Σ_k s'_a[k]²/s_a[k]) · Π_{c≠a} Σ_k s_c[k],
+//! H_ab = (Σ_k s'_a[k]) (Σ_k s'_b[k]) · Π_{c≠a,b} Σ_k s_c[k]      (a ≠ b).
+//! ```
+//!
+//! Where the 1D weights sum to one and their derivatives to zero (a full stencil) this is
+//! `diag(Σ_k s'_a²/s_a)`. The whole stencil is summed, inactive nodes included: the library's
+//! metric leaves those out, and every left-out term is positive semi-definite, so the
+//! metric here bounds it from above in the Loewner order and the bound built from it is
+//! still an upper bound of `λmax(M⁻¹K)`. A 1D factor of zero weight and non-zero derivative
+//! (a linear hat's particle on a node) makes the metric unbounded (`None`), unless the
+//! derivative is a round-off residue (`|s'|·h ≤ 10⁻⁹`, as in
+//! [`crate::limits_nd::element_bound`]).
+
+use super::factors::AxisFactors;
+
+/// `|s'|·h` below which a derivative at a factor of zero weight counts as round-off.
+const ROUND_OFF: f64 = 1e-9;
+
+/// The largest Gershgorin row sum and the trace of the metric of factors `f` with `n`
+/// nodes per axis (module docs); `h` the cell sizes. `None` where it is unbounded.
+#[inline]
+#[allow(clippy::needless_range_loop)] // a, b, c index several per-axis tables
+pub fn gradient_metric<const D: usize>(
+    f: &[AxisFactors; D],
+    n: usize,
+    h: &[f64; D],
+) -> Option<(f64, f64)> {
+    let mut sum_s = [0.0f64; D];
+    let mut sum_d = [0.0f64; D];
+    let mut quad = [0.0f64; D];
+    for a in 0..D {
+        for k in 0..n.min(3) {
+            let (s, d) = (f[a].s[k], f[a].d[k]);
+            sum_s[a] += s;
+            sum_d[a] += d;
+            if s > 0.0 {
+                quad[a] += d * d / s;
+            } else if d.abs() * h[a] > ROUND_OFF {
+                return None;
+            }
+        }
+    }
+    let mut trace = 0.0;
+    let mut row_max = 0.0f64;
+    for a in 0..D {
+        let mut diag = quad[a];
+        for c in 0..D {
+            if c != a {
+                diag *= sum_s[c];
+            }
+        }
+        trace += diag;
+        let mut row = diag.abs();
+        if sum_d[a] != 0.0 {
+            for b in 0..D {
+                if b == a {
+                    continue;
+                }
+                let mut off = sum_d[a] * sum_d[b];
+                for c in 0..D {
+                    if c != a && c != b {
+                        off *= sum_s[c];
+                    }
+                }
+                row += off.abs();
+            }
+        }
+        row_max = row_max.max(row);
+    }
+    Some((row_max, trace))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::nd::factors::form_row;
+    use crate::nd::Vector;
+
+    /// The metric from the factors equals the one summed over the formed row.
+    #[test]
+    fn matches_the_formed_row() {
+        let mut f = [AxisFactors::default(); 2];
+        f[0].s = [0.2, 0.5, 0.3];
+        f[0].d = [-1.1, 0.4, 0.9]; // not summing to 0: off-diagonal terms
+        f[1].s = [0.125, 0.75, 0.125];
+        f[1].d = [-0.5, 0.0, 0.5];
+        let (mut nodes, mut s, mut g) = ([0u32; 9], [0.0; 9], [Vector::<2>::zeros(); 9]);
+        form_row(&f, 3, &mut nodes, &mut s, &mut g);
+        let mut h = [[0.0; 2]; 2];
+        for m in 0..9 {
+            for a in 0..2 {
+                for b in 0..2 {
+                    h[a][b] += g[m][a] * g[m][b] / s[m];
+                }
+            }
+        }
+        let (row, trace) = gradient_metric(&f, 3, &[1.0, 1.0]).unwrap();
+        let row_ref = (0..2)
+            .map(|a| h[a][0].abs() + h[a][1].abs())
+            .fold(0.0f64, f64::max);
+        assert!((trace - (h[0][0] + h[1][1])).abs() < 1e-12 * trace);
+        assert!((row - row_ref).abs() < 1e-12 * row);
+    }
+
+    #[test]
+    fn a_hat_on_a_node_is_unbounded() {
+        let mut f = [AxisFactors::default(); 2];
+        f[0].s = [1.0, 0.0, 0.0];
+        f[0].d = [-1.0, 1.0, 0.0];
+        f[1].s = [0.5, 0.5, 0.0];
+        f[1].d = [-1.0, 1.0, 0.0];
+        assert_eq!(gradient_metric(&f, 2, &[1.0, 1.0]), None);
+    }
+}
