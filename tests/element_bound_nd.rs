@@ -1,6 +1,7 @@
 //! Capability: the element bound `max_p λ_p` is an upper bound on the dense `λmax(M⁻¹K)`
 //! on random small layouts of every shape in 2D and 3D (property test), it is within a
-//! small factor of it on a uniform layout, and the stability limit steps on it only where
+//! small factor of it on a uniform layout (the reference solver's own, from its weight
+//! factors, at least the library's), and the stability limit steps on it only where
 //! it is tight: the steps it proposes never exceed the frozen-particle limit it certifies.
 
 use mpm_dt::controller::{Controller, ControllerConfig, Outcome};
@@ -47,13 +48,22 @@ fn layout<const D: usize>(
     SolverNd::new(grid, shape, particles, Vector::<D>::zeros()).unwrap()
 }
 
-/// `(bound, dense λmax)` of a layout.
-fn bound_and_dense<const D: usize>(s: &SolverNd<D>) -> (f64, f64)
+/// `(bound, dense λmax)` of a layout; also checks that the bound the reference solver
+/// hands over from its weight factors ([`mpm_dt::nd::factor_metric`]) is at least the
+/// library's (it sums the whole stencil, inactive nodes included) and finite where the
+/// library's is.
+fn bound_and_dense<const D: usize>(s: &mut SolverNd<D>) -> (f64, f64)
 where
     Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
 {
+    s.provide_summary(true);
     let view = s.view();
     let bound = element_bound(&view, &SingleProcess).lambda;
+    let supplied = view.summary.and_then(|x| x.element_bound).expect("supplied");
+    assert!(
+        supplied >= bound * (1.0 - 1e-12) && (supplied.is_finite() || bound.is_infinite()),
+        "supplied bound {supplied:e} against the library's {bound:e}"
+    );
     let dense = dense_lambda_max(&view).expect("dense eigenvalues");
     (bound, dense)
 }
@@ -76,8 +86,8 @@ proptest! {
         let shape = shape_of(shape);
         // Quadratic B-splines run on periodic axes only.
         let boundary = if fixed && shape != ShapeNd::BSpline2 { Boundary::Fixed } else { Boundary::Periodic };
-        let s = layout::<2>(5, shape, boundary, jitter, poisson, seed);
-        let (bound, dense) = bound_and_dense(&s);
+        let mut s = layout::<2>(5, shape, boundary, jitter, poisson, seed);
+        let (bound, dense) = bound_and_dense(&mut s);
         prop_assert!(dense > 0.0);
         prop_assert!(bound >= dense * (1.0 - 1e-9), "{shape:?} {boundary:?}: bound {bound:e} < dense {dense:e}");
     }
@@ -90,8 +100,8 @@ proptest! {
         poisson in 0.0f64..0.45,
     ) {
         let shape = shape_of(shape);
-        let s = layout::<3>(3, shape, Boundary::Periodic, jitter, poisson, seed);
-        let (bound, dense) = bound_and_dense(&s);
+        let mut s = layout::<3>(3, shape, Boundary::Periodic, jitter, poisson, seed);
+        let (bound, dense) = bound_and_dense(&mut s);
         prop_assert!(dense > 0.0);
         prop_assert!(bound >= dense * (1.0 - 1e-9), "{shape:?}: bound {bound:e} < dense {dense:e}");
     }
@@ -103,8 +113,8 @@ proptest! {
 #[test]
 fn the_bound_is_finite_and_within_a_small_factor_on_uniform_layouts() {
     for shape in [ShapeNd::Gimp, ShapeNd::BSpline2] {
-        let s = layout::<2>(6, shape, Boundary::Periodic, 0.0, 0.3, 1);
-        let (bound, dense) = bound_and_dense(&s);
+        let mut s = layout::<2>(6, shape, Boundary::Periodic, 0.0, 0.3, 1);
+        let (bound, dense) = bound_and_dense(&mut s);
         let ratio = bound / dense;
         eprintln!("{shape:?}: bound / dense λmax = {ratio:.3}");
         // Measured (ν = 0.3): GIMP 3.33, quadratic B-splines 4.75 (the top mode spreads over
