@@ -86,6 +86,15 @@ use std::rc::Rc;
 pub const STABILITY: &str = "stability";
 
 /// The tracked eq 56 limit in d dimensions (module docs).
+///
+/// # Memory
+///
+/// Per particle (O(particles)): its position and the two moduli of `V_p C_p` at the
+/// refresh, the motion guard's references, `(D + 2)·8` bytes (40 in 3D, 32 in 2D; on a
+/// decomposed grid for every particle of the run). Per node (O(nodes)): the Ritz vector,
+/// `D·8` bytes; during a refresh also the Lanczos basis, `D·8` bytes per active node and
+/// iteration, released after it. Products with `K` form each particle's weight row and
+/// moduli as they go. [`StepLimit::memory_bytes`] sums what is held between calls.
 #[derive(Clone, Debug)]
 pub struct StabilityNd<const D: usize> {
     config: StabilityNdConfig,
@@ -413,5 +422,11 @@ where
 
     fn set_reduce(&mut self, reduce: Rc<dyn Reduce>) {
         self.reduce = reduce;
+    }
+
+    fn memory_bytes(&self) -> usize {
+        self.x_ref.capacity() * std::mem::size_of::<Vector<D>>()
+            + self.moduli_ref.capacity() * std::mem::size_of::<(f64, f64)>()
+            + self.ritz.capacity() * std::mem::size_of::<f64>()
     }
 }

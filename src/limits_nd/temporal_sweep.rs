@@ -67,6 +67,45 @@ impl<const D: usize> History<D> {
     }
 }
 
+impl<const D: usize> History<D> {
+    /// Bytes of its arrays (their capacities).
+    pub fn heap_bytes(&self) -> usize {
+        self.accel.capacity() * std::mem::size_of::<Vector<D>>()
+            + self.stress_rate.capacity() * std::mem::size_of::<Tensor<D>>()
+            + self.ids.capacity() * std::mem::size_of::<u64>()
+    }
+}
+
+/// Writes the rates `(v^{n+1} − v^n)/dt`, `(σ^{n+1} − σ^n)/dt` of a step whose trial keeps
+/// its particles in their committed order into `out`, with the same operations as
+/// [`sweep`] (so the same values, bit for bit), and the trial's run-wide ids.
+pub(super) fn rates_into<const D: usize>(
+    before: &ViewNd<'_, D>,
+    after: &ViewNd<'_, D>,
+    dt: f64,
+    out: &mut History<D>,
+) {
+    let inv_dt = 1.0 / dt;
+    let n = after.n_particles().min(before.n_particles());
+    out.accel.clear();
+    out.accel
+        .extend((0..n).map(|p| (after.v[p] - before.v[p]) * inv_dt));
+    out.stress_rate.clear();
+    out.stress_rate
+        .extend((0..n).map(|p| (after.sigma[p] - before.sigma[p]) * inv_dt));
+    out.ids.clear();
+    if let Some(split) = after.split {
+        out.ids.extend_from_slice(split.particle_id);
+    }
+}
+
+/// Stamps a history with the step it was formed over and the step's field scales.
+pub(super) fn stamp<const D: usize>(out: &mut History<D>, dt: f64, v_scale: f64, sigma_scale: f64) {
+    out.dt = dt;
+    out.v_scale = v_scale;
+    out.sigma_scale = sigma_scale;
+}
+
 /// What one sweep over the particles gives.
 pub(super) struct Sweep {
     /// `Σ (le_v/w_v)²`, `Σ (le_σ/w_σ)²`.

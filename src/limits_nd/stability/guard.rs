@@ -113,10 +113,12 @@ impl<const D: usize> StabilityNd<D> {
     /// comparison; this costs `n_total·(D + 2)` numbers of memory on every process.
     pub(super) fn store_references(&mut self, view: &ViewNd<'_, D>) {
         let Some(split) = &view.split else {
-            self.x_ref = view.x.to_vec();
-            self.moduli_ref = (0..view.n_particles())
-                .map(|p| Self::moduli(view, p))
-                .collect();
+            // Overwritten in place: no second copy while the old references are dropped.
+            self.x_ref.clear();
+            self.x_ref.extend_from_slice(view.x);
+            self.moduli_ref.clear();
+            self.moduli_ref
+                .extend((0..view.n_particles()).map(|p| Self::moduli(view, p)));
             return;
         };
         let n = split.n_particles_total;

@@ -1,15 +1,27 @@
 //! [`SolverNd`]: the reference d-dimensional update-stress-last solver (D = 2, 3).
 //!
-//! One step from a committed state whose weights and nodal fields are known (docs/design.md, "The
+//! One step from a committed state whose nodal fields are known (docs/design.md, "The
 //! USL step in d dimensions"): `v_iⁿ⁺¹ = v_i + dt a_i`; grid → particle
-//! ([`super::kernels`]); then, at the new positions, the weights and the particle → grid
-//! pass that the *next* step starts from. A step therefore costs one particle → grid and
-//! one grid → particle pass, and every state — committed or trial — carries the weights
-//! and nodal fields of its own particle positions, as the [`ViewNd`] promises.
+//! ([`super::kernels`]); then, at the new positions, the particle → grid pass that the
+//! *next* step starts from. A step therefore costs one particle → grid and one grid →
+//! particle pass, and every state — committed or trial — carries the nodal fields of its
+//! own particle positions, as the [`ViewNd`] promises. No state stores its weights: every
+//! pass forms a particle's row from its position, GIMP domain, the grid and the shape
+//! ([`ViewWeightsNd`]), bit for bit the row a stored form would hold.
 //!
 //! The trial is written into a second buffer; [`Stepper::accept`] swaps the buffers and
 //! [`Stepper::reject`] drops the trial, so the committed state is never written by a trial
 //! and a rejection restores it bit for bit.
+//!
+//! # Memory
+//!
+//! Per particle (O(particles)), in bytes for `D = 3` (`D = 2`): the committed state and
+//! the trial each hold `x`, `v` (48; 32), `σ`, `F` (144; 64), density and the two tangent
+//! moduli (24); the fields a step does not change — mass, `V⁰`, GIMP domain, material,
+//! run-wide id ([`CarriedNd`], 72; 64) — are held once and shared. In all
+//! `2·216 + 72 = 504` bytes (`2·120 + 64 = 304` in 2D). Per node (O(nodes)), per state:
+//! mass, velocity, acceleration, activity (`8 + 16D + 1` bytes), plus the solver's
+//! `v_iⁿ⁺¹` and constraint flags. [`SolverNd::memory_bytes`] sums what is held.
 
 mod setup;
 mod trial;
@@ -17,7 +29,9 @@ mod trial;
 use super::kernels;
 use super::particles::SetupNdError;
 use super::slab::SlabNd;
-use super::{GridNd, MaterialNd, ShapeNd, SplitNd, SummaryNd, Tensor, Vector, ViewNd, WeightsNd};
+use super::{
+    GridNd, MaterialNd, ShapeNd, SplitNd, SummaryNd, Tensor, Vector, ViewNd, ViewWeightsNd,
+};
 use crate::dimension::{Dim, Dimension, StateView};
 use crate::reduce::Reduce;
 use crate::stepper::{StepError, Stepper};
@@ -51,7 +65,6 @@ pub(super) struct StateNd<const D: usize> {
     pub density: Vec<f64>,
     pub lame_lambda: Vec<f64>,
     pub lame_mu: Vec<f64>,
-    weights: WeightsNd<D>,
     node_mass: Vec<f64>,
     node_v: Vec<Vector<D>>,
     node_a: Vec<Vector<D>>,
@@ -128,14 +141,7 @@ impl<const D: usize> SolverNd<D> {
         let fault = if failed {
             Ok(())
         } else {
-            kernels::compute_weights(
-                &self.grid,
-                self.shape,
-                &s.x,
-                &s.carried.domain,
-                &mut s.weights,
-                true,
-            )
+            kernels::check_stencils(&self.grid, self.shape, &s.x, &s.carried.domain)
         };
         if failed || fault.is_err() {
             self.take_part_after_failure();
@@ -145,7 +151,7 @@ impl<const D: usize> SolverNd<D> {
             self.split.complete_nodal(m, v, a)
         };
         kernels::particle_to_grid(
-            &s.weights,
+            &ViewWeightsNd::formed(&self.grid, self.shape, &s.x, &s.carried.domain),
             &s.carried.mass,
             &s.carried.volume0,
             &s.v,
@@ -364,7 +370,7 @@ impl<const D: usize> SolverNd<D> {
             lame_lambda: &s.lame_lambda,
             lame_mu: &s.lame_mu,
             density: &s.density,
-            weights: &s.weights,
+            weights: ViewWeightsNd::formed(&self.grid, self.shape, &s.x, &s.carried.domain),
             node_mass: &s.node_mass,
             node_velocity: &s.node_v,
             node_acceleration: &s.node_a,

@@ -4,7 +4,7 @@
 use super::{CarriedNd, SolverNd, Split, StateNd, INACTIVE_MASS_RATIO};
 use crate::nd::particles::{ParticlesNd, SetupNdError};
 use crate::nd::slab::SlabNd;
-use crate::nd::{GridNd, ShapeNd, Tensor, Vector, WeightsNd};
+use crate::nd::{GridNd, ShapeNd, Tensor, Vector};
 use crate::reduce::Reduce;
 use std::rc::Rc;
 
@@ -136,7 +136,6 @@ impl<const D: usize> SolverNd<D> {
             f: vec![Tensor::<D>::identity(); n],
             lame_lambda,
             lame_mu,
-            weights: WeightsNd::new(grid.n_nodes(), shape.width(D)),
             carried: Rc::new(CarriedNd {
                 mass: particles.mass,
                 volume0: particles.volume,

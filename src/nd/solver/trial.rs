@@ -2,7 +2,7 @@
 
 use super::SolverNd;
 use crate::nd::kernels::{self, Committed, ParticleFault, Written};
-use crate::nd::{SummaryNd, Tensor, Vector};
+use crate::nd::{SummaryNd, Tensor, Vector, ViewWeightsNd};
 use crate::stepper::StepError;
 use std::rc::Rc;
 
@@ -41,7 +41,7 @@ impl<const D: usize> SolverNd<D> {
                 v: &c.v,
                 sigma: &c.sigma,
                 f: &c.f,
-                weights: &c.weights,
+                weights: ViewWeightsNd::formed(&self.grid, self.shape, &c.x, &c.carried.domain),
                 node_a: &c.node_a,
             },
             Written {
