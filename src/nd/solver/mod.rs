@@ -23,6 +23,7 @@
 //! mass, velocity, acceleration, activity (`8 + 16D + 1` bytes), plus the solver's
 //! `v_iⁿ⁺¹` and constraint flags. [`SolverNd::memory_bytes`] sums what is held.
 
+mod memory;
 mod setup;
 mod trial;
 
