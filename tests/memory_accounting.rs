@@ -5,8 +5,9 @@
 //! state (committed state and trial allocated) are within 10 % of the controller's
 //! accounted bytes, and the bytes the solver holds after its set-up are within 10 % of its
 //! own. The controller's figure per particle is the documented one: the temporal-error
-//! history `(D + D²)·8` and the stability guard's references `(D + 2)·8` bytes, plus
-//! O(nodes).
+//! history `(D + D(D+1)/2)·8` (symmetric stresses) and the stability guard's references
+//! `(D + 2)·8` bytes, plus O(nodes); the solver's `2·(2D + 2D² + 1)·8` for its two states
+//! plus the shared fields.
 //!
 //! One `#[test]`: the counter is global, so no other test of this binary may allocate
 //! while it measures.
@@ -100,6 +101,18 @@ where
     solver.reject();
     let solver_held = live() - before_solver;
     within_ten_percent("solver", solver_held, solver.memory_bytes());
+    // Two states of x, v, σ, F and density; the shared fields (mass, V⁰, domain,
+    // material, id) and moduli; per node two states' mass, velocity, acceleration and
+    // activity, the step's velocities and the constraint flags.
+    let (n, nodes) = (solver.n_particles(), solver.grid().n_nodes());
+    let states = 2 * (2 * D + 2 * D * D + 1) * 8 * n;
+    let shared = (8 + 8 + 8 * D + 24 + 8 + 16) * n;
+    let nodal = (2 * (8 + 16 * D + 1) + 8 * D + 1) * nodes;
+    assert!(
+        solver.memory_bytes() <= states + shared + nodal,
+        "{}",
+        solver.memory_bytes()
+    );
 
     let limits = standard_limits::<D>(&config, Vector::<D>::zeros());
     let mut controller = Controller::<D>::new(config, limits).expect("controller");
@@ -122,14 +135,15 @@ where
 #[test]
 fn the_controller_and_the_solver_hold_what_they_account_for() {
     let per_particle_3d = check::<3>(12);
-    // 96 B of temporal-error history and 40 B of guard references, plus the Ritz vector.
+    // 72 B of temporal-error history and 40 B of guard references, plus the Ritz vector
+    // (3 numbers a node, 8 particles a cell).
     assert!(
-        (136.0..150.0).contains(&per_particle_3d),
+        (112.0..116.0).contains(&per_particle_3d),
         "3D: {per_particle_3d} B a particle"
     );
     let per_particle_2d = check::<2>(48);
     assert!(
-        (80.0..90.0).contains(&per_particle_2d),
+        (72.0..78.0).contains(&per_particle_2d),
         "2D: {per_particle_2d} B a particle"
     );
 }

@@ -69,7 +69,7 @@ use crate::controller::deferral::{self, Deferral, DeferredTrial};
 use crate::controller::{metric, TemporalErrorConfig, TEMPORAL_ERROR};
 use crate::dimension::{Dim, Dimension};
 use crate::limit::{Judgement, LimitError, Metrics, Proposal, RejectCause, StepLimit, Verdict};
-use crate::nd::{Tensor, Vector, ViewNd};
+use crate::nd::{Vector, ViewNd};
 
 /// Relative growth of a field scale over the previous step's below which the weights keep
 /// the previous scale (one pass over the particles instead of two).
@@ -106,7 +106,8 @@ struct Judged<const D: usize> {
 /// # Memory
 ///
 /// One history of rates per particle (O(particles)): `a_p` and `σ̇_p`, `(D + D²)·8` bytes
-/// (96 in 3D, 48 in 2D), plus the run-wide ids on a grid-decomposed run (8). A judged
+/// (96 in 3D, 48 in 2D), or `(D + D(D+1)/2)·8` (72, 40) while the stress rates are
+/// symmetric, as the reference solver's are ([`super::stress_rates`]), plus the run-wide ids on a grid-decomposed run (8). A judged
 /// trial's rates are not kept: when it is accepted they are formed again from the two
 /// states, `(u^{n+1} − u^n)/dt` with the same operations, and written over the history
 /// in place. Only where particles changed process in a trial (a grid-decomposed run) are
@@ -260,7 +261,7 @@ impl<const D: usize> TemporalErrorNd<D> {
         // Every entry is written by the first sweep (the arrays keep their length).
         if let Some(out) = out.as_deref_mut() {
             out.accel.resize(n, Vector::<D>::zeros());
-            out.stress_rate.resize(n, Tensor::<D>::zeros());
+            out.stress_rate.reset(n);
             out.ids.clear();
             if let Some(ids) = split {
                 out.ids.extend_from_slice(ids);

@@ -211,8 +211,8 @@ pub(super) struct Written<'a, const D: usize> {
     pub sigma: &'a mut [Tensor<D>],
     pub f: &'a mut [Tensor<D>],
     pub density: &'a mut [f64],
-    pub lame_lambda: &'a mut [f64],
-    pub lame_mu: &'a mut [f64],
+    /// The tangent moduli `(λ_t, μ_t)`; `None` where they are constant (not written).
+    pub moduli: Option<(&'a mut [f64], &'a mut [f64])>,
 }
 
 /// Grid → particle: `v_p += dt Σ S a_i`, `L_p = Σ v_iⁿ⁺¹ ⊗ ∇S_ip`, `F ← F + dt L F`, the
@@ -231,7 +231,7 @@ pub(super) fn grid_to_particle<const D: usize>(
     node_v1: &[Vector<D>],
     dt: f64,
     from: Committed<'_, D>,
-    into: Written<'_, D>,
+    mut into: Written<'_, D>,
     summarize: bool,
 ) -> Result<SummaryNd<D>, ParticleFault> {
     let mut summary = SummaryNd {
@@ -310,9 +310,9 @@ pub(super) fn grid_to_particle<const D: usize>(
         into.f[p] = f;
         into.sigma[p] = sigma;
         into.density[p] = mass[p] / (j * volume0[p]);
-        let (lt, mt) = material[p].tangent(j);
-        into.lame_lambda[p] = lt;
-        into.lame_mu[p] = mt;
+        if let Some((lambda, mu)) = into.moduli.as_mut() {
+            (lambda[p], mu[p]) = material[p].tangent(j);
+        }
     }
     Ok(summary)
 }

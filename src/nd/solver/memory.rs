@@ -15,8 +15,6 @@ impl<const D: usize> StateNd<D> {
             + heap(&self.sigma)
             + heap(&self.f)
             + heap(&self.density)
-            + heap(&self.lame_lambda)
-            + heap(&self.lame_mu)
             + heap(&self.node_mass)
             + heap(&self.node_v)
             + heap(&self.node_a)
@@ -36,7 +34,8 @@ impl<const D: usize> CarriedNd<D> {
 
 impl<const D: usize> SolverNd<D> {
     /// Bytes of heap memory the solver holds (its arrays' capacities): the committed state
-    /// and the trial, the carried fields (once, unless the two states hold different ones),
+    /// and the trial, the carried fields and the moduli (once where the two states share
+    /// them),
     /// the grid's nodal flags and the nodal velocities of the step. Module docs of
     /// [`SolverNd`] for what is O(particles) and what O(nodes); a grid-decomposed run's
     /// slab tables are not counted.
@@ -48,6 +47,19 @@ impl<const D: usize> SolverNd<D> {
             } else {
                 t.carried.heap_bytes()
             };
-        c.heap_bytes() + t.heap_bytes() + carried + heap(&self.constrained) + heap(&self.node_v1)
+        // The moduli: once where the two states share them.
+        let moduli = |s: &StateNd<D>| heap(&s.moduli.lambda) + heap(&s.moduli.mu);
+        let moduli = moduli(c)
+            + if std::rc::Rc::ptr_eq(&c.moduli, &t.moduli) {
+                0
+            } else {
+                moduli(t)
+            };
+        c.heap_bytes()
+            + t.heap_bytes()
+            + carried
+            + moduli
+            + heap(&self.constrained)
+            + heap(&self.node_v1)
     }
 }

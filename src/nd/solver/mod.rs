@@ -16,10 +16,11 @@
 //! # Memory
 //!
 //! Per particle (O(particles)), in bytes for `D = 3` (`D = 2`): the committed state and
-//! the trial each hold `x`, `v` (48; 32), `σ`, `F` (144; 64), density and the two tangent
-//! moduli (24); the fields a step does not change — mass, `V⁰`, GIMP domain, material,
-//! run-wide id ([`CarriedNd`], 72; 64) — are held once and shared. In all
-//! `2·216 + 72 = 504` bytes (`2·120 + 64 = 304` in 2D). Per node (O(nodes)), per state:
+//! the trial each hold `x`, `v` (48; 32), `σ`, `F` (144; 64) and the density (8); the
+//! fields a step does not change — mass, `V⁰`, GIMP domain, material, run-wide id
+//! ([`CarriedNd`], 72; 64) — are held once and shared, and so are the two tangent moduli
+//! (16) where every material is linear-elastic ([`ModuliNd`]; else each state holds its
+//! own). In all `2·200 + 72 + 16 = 488` bytes (`2·104 + 64 + 16 = 288` in 2D). Per node (O(nodes)), per state:
 //! mass, velocity, acceleration, activity (`8 + 16D + 1` bytes), plus the solver's
 //! `v_iⁿ⁺¹` and constraint flags. [`SolverNd::memory_bytes`] sums what is held.
 
@@ -54,6 +55,15 @@ pub(super) struct CarriedNd<const D: usize> {
     pub id: Vec<u64>,
 }
 
+/// The tangent moduli `(λ_t, μ_t)` of a state's particles ([`ViewNd`]). Where every
+/// material's tangent is constant (linear elasticity) a step does not change them: the
+/// committed state and the trial then share one copy.
+#[derive(Clone, Debug, Default)]
+pub(super) struct ModuliNd {
+    pub lambda: Vec<f64>,
+    pub mu: Vec<f64>,
+}
+
 /// One state of the solver.
 #[derive(Clone, Debug, Default)]
 pub(super) struct StateNd<const D: usize> {
@@ -64,8 +74,8 @@ pub(super) struct StateNd<const D: usize> {
     pub sigma: Vec<Tensor<D>>,
     pub f: Vec<Tensor<D>>,
     pub density: Vec<f64>,
-    pub lame_lambda: Vec<f64>,
-    pub lame_mu: Vec<f64>,
+    /// Shared with the other state where the moduli are constant ([`ModuliNd`]).
+    pub moduli: Rc<ModuliNd>,
     node_mass: Vec<f64>,
     node_v: Vec<Vector<D>>,
     node_a: Vec<Vector<D>>,
@@ -127,6 +137,8 @@ pub struct SolverNd<const D: usize> {
     n_total: usize,
     /// Whether the trials carry their [`SummaryNd`] ([`Stepper::provide_summary`]).
     summarize: bool,
+    /// Every material's tangent moduli are constant: the states share them.
+    constant_moduli: bool,
 }
 
 impl<const D: usize> SolverNd<D> {
@@ -368,8 +380,8 @@ impl<const D: usize> SolverNd<D> {
             f: &s.f,
             volume0: &s.carried.volume0,
             mass: &s.carried.mass,
-            lame_lambda: &s.lame_lambda,
-            lame_mu: &s.lame_mu,
+            lame_lambda: &s.moduli.lambda,
+            lame_mu: &s.moduli.mu,
             density: &s.density,
             weights: ViewWeightsNd::formed(&self.grid, self.shape, &s.x, &s.carried.domain),
             node_mass: &s.node_mass,
