@@ -59,7 +59,7 @@ pub(super) fn check_stencils<const D: usize>(
 
 /// The per-axis factors of a particle at `x` with GIMP domain `l`; `None` if its stencil
 /// leaves the stored nodes.
-#[inline(always)]
+#[inline]
 pub(super) fn axis_factors<const D: usize>(
     grid: &GridNd<D>,
     shape: ShapeNd,
