@@ -193,6 +193,14 @@ where
         let _ = factor;
     }
 
+    /// Bytes of heap memory the limit holds between calls (its arrays' capacities):
+    /// per-particle histories and references, nodal vectors. What a user's solver pays
+    /// for the limit on top of its own state ([`crate::controller::Controller::memory_bytes`]).
+    /// Default: 0 (a limit that keeps no arrays).
+    fn memory_bytes(&self) -> usize {
+        0
+    }
+
     /// Hands the limit the run's global reductions ([`crate::reduce`]); called by
     /// [`Controller::with_reduce`](crate::controller::Controller::with_reduce). A limit
     /// whose proposal needs sums over the whole state (the d-dimensional stability

@@ -59,7 +59,10 @@ where
     s.provide_summary(true);
     let view = s.view();
     let bound = element_bound(&view, &SingleProcess).lambda;
-    let supplied = view.summary.and_then(|x| x.element_bound).expect("supplied");
+    let supplied = view
+        .summary
+        .and_then(|x| x.element_bound)
+        .expect("supplied");
     assert!(
         supplied >= bound * (1.0 - 1e-12) && (supplied.is_finite() || bound.is_infinite()),
         "supplied bound {supplied:e} against the library's {bound:e}"

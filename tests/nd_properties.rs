@@ -78,7 +78,8 @@ where
         out.extend(field.iter().flat_map(|x| x.iter().map(|c| c.to_bits())));
     }
     out.extend(v.node_mass.iter().map(|m| m.to_bits()));
-    out.extend(v.weights.s_of(0).iter().map(|w| w.to_bits()));
+    v.weights
+        .with_row(0, |_, s, _| out.extend(s.iter().map(|w| w.to_bits())));
     out
 }
 

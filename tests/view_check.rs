@@ -61,7 +61,7 @@ impl Tampered {
         let view = inner.view();
         let mut grid = view.grid.clone();
         grid.cells[0] += 1;
-        let w = view.weights;
+        let w = view.weights.to_stored();
         let n = w.n_particles();
         let h = view.grid.h[0];
         let rows = |n: usize, f: &dyn Fn(usize, usize) -> (f64, Vector<2>)| {
@@ -137,7 +137,7 @@ impl Stepper<2> for Tampered {
                     "node_velocity" => t.node_velocity = cut(view.node_velocity, k),
                     "node_acceleration" => t.node_acceleration = cut(view.node_acceleration, k),
                     "node_active" => t.node_active = cut(view.node_active, k),
-                    "weights" => t.weights = &self.weights,
+                    "weights" => t.weights = (&self.weights).into(),
                     other => unreachable!("{other}"),
                 }
                 t
@@ -147,7 +147,7 @@ impl Stepper<2> for Tampered {
                 ..view
             },
             Misuse::HalfWeights | Misuse::GradientsWithoutInverseH => ViewNd {
-                weights: &self.weights,
+                weights: (&self.weights).into(),
                 ..view
             },
             Misuse::NanVelocity(_) => ViewNd {
@@ -414,14 +414,14 @@ fn mls_gradients_pass_also_across_a_periodic_boundary() {
     let mls = rows(4.0 / (h * h));
     let moved = ViewNd {
         x: &x,
-        weights: &mls,
+        weights: (&mls).into(),
         summary: None,
         ..view
     };
     moved.check().expect("MLS gradients are complete");
     let wrong = rows(4.0 / h);
     let e = ViewNd {
-        weights: &wrong,
+        weights: (&wrong).into(),
         ..moved
     }
     .check()
@@ -439,13 +439,13 @@ fn rows_filled_in_place_are_checked() {
     let (solver, _) = scenario("plane_p_2d.json").build::<2>().expect("solver");
     let view = solver.view();
     let n = view.n_particles();
-    let mut w = view.weights.clone();
+    let mut w = view.weights.to_stored();
     let (nodes, s, _) = w.storage_mut(n);
     let kept = nodes[9 * 7 + 2];
     nodes[9 * 7 + 2] = view.n_nodes() as u32;
     s[9 * 11 + 4] = f64::NAN;
     let e = ViewNd {
-        weights: &w,
+        weights: (&w).into(),
         ..view
     }
     .check()
@@ -457,7 +457,7 @@ fn rows_filled_in_place_are_checked() {
     let (nodes, _, _) = w.storage_mut(n);
     nodes[9 * 7 + 2] = kept;
     let e = ViewNd {
-        weights: &w,
+        weights: (&w).into(),
         ..view
     }
     .check()

@@ -41,7 +41,7 @@ impl GoesWrong {
 
     /// The committed weights, halved.
     fn halve(&mut self) {
-        let w = self.inner.view().weights;
+        let w = self.inner.view().weights.to_stored();
         let n = w.n_particles();
         let nodes = (0..n).flat_map(|p| w.nodes_of(p).to_vec()).collect();
         let s = (0..n)
@@ -78,7 +78,7 @@ impl Stepper<2> for GoesWrong {
         let view = self.inner.view();
         if self.wrong() && !self.trial_short {
             ViewNd {
-                weights: &self.halved,
+                weights: (&self.halved).into(),
                 ..view
             }
         } else {

@@ -1,8 +1,7 @@
-//! Capability: the reference solver's weights held as per-axis factors read the same, bit
-//! for bit, as the stored rows formed by `nd::fields::compute_weights` at the same
-//! positions — through `with_row`, `for_each_in_row` and the slice accessors — for every
-//! shape, periodic and fixed walls, in 2D and 3D; a caller that rewrites the gradients of
-//! factored weights through `storage_mut` keeps their weights; the factors take less memory.
+//! Capability: the reference solver's weights, formed when a pass reads a row, read the
+//! same, bit for bit, as the stored rows formed by `nd::fields::compute_weights` at the
+//! same positions — through `with_row`, `for_each_in_row` and `to_stored` — for every
+//! shape, periodic and fixed walls, in 2D and 3D; they hold no memory per particle.
 
 use mpm_dt::nd::fields::compute_weights;
 use mpm_dt::nd::{GridNd, MaterialNd, ParticlesNd, ShapeNd, SolverNd, Vector, WeightsNd};
@@ -52,89 +51,65 @@ fn rows_of<const D: usize>(w: &WeightsNd<D>, p: usize) -> (Vec<u32>, Vec<u64>, V
     })
 }
 
-fn factors_match_stored_rows<const D: usize>(shape: ShapeNd, boundary: Boundary)
+fn formed_rows_match_stored_rows<const D: usize>(shape: ShapeNd, boundary: Boundary)
 where
     Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
 {
     let s = solver::<D>(shape, boundary);
     let view = s.view();
-    let factored = view.weights;
-    assert!(
-        factored.factors().is_some(),
-        "the solver hands over factors"
-    );
+    let formed = view.weights;
+    assert!(formed.is_formed(), "the solver stores no weights");
+    assert_eq!(formed.bytes_per_particle(), 0);
     let domain = vec![view.grid.h.map(|h| h / 2.0).into(); view.n_particles()];
     let mut stored = WeightsNd::<D>::default();
     compute_weights(view.grid, shape, view.x, &domain, &mut stored).unwrap();
-    assert!(stored.factors().is_none());
-    assert_eq!(factored.n_particles(), stored.n_particles());
+    assert_eq!(formed.n_particles(), stored.n_particles());
+    assert_eq!(formed.width(), stored.width());
+    assert_eq!(formed.n_nodes(), stored.n_nodes());
     for p in 0..view.n_particles() {
         let want = rows_of(&stored, p);
-        assert_eq!(rows_of(factored, p), want, "{D}D {shape:?} particle {p}");
+        let got = formed.with_row(p, |nodes, s, grad| {
+            (
+                nodes.to_vec(),
+                s.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+                grad.iter()
+                    .flat_map(|g| g.iter().map(|x| x.to_bits()).collect::<Vec<_>>())
+                    .collect::<Vec<_>>(),
+            )
+        });
+        assert_eq!(got, want, "{D}D {shape:?} particle {p}");
         let mut visited = (Vec::new(), Vec::new(), Vec::new());
-        factored.for_each_in_row(p, |i, w, g| {
+        formed.for_each_in_row(p, |i, w, g| {
             visited.0.push(i as u32);
             visited.1.push(w.to_bits());
             visited.2.extend(g.iter().map(|x| x.to_bits()));
         });
         assert_eq!(visited, want, "{D}D {shape:?} particle {p} (visitor)");
-        assert_eq!(factored.nodes_of(p), stored.nodes_of(p));
-        assert_eq!(
-            factored
-                .s_of(p)
-                .iter()
-                .map(|x| x.to_bits())
-                .collect::<Vec<_>>(),
-            want.1
-        );
     }
-    // The factors are the smaller form for 3-node stencils (the linear hat's 2D row of 4
-    // entries is about their size).
-    let fresh = solver::<D>(shape, boundary);
-    let fresh_bytes = fresh.view().weights.bytes_per_particle();
-    if shape.nodes_per_axis() == 3 {
-        assert!(
-            fresh_bytes < stored.bytes_per_particle(),
-            "{fresh_bytes} B against {} B stored",
-            stored.bytes_per_particle()
-        );
-    }
-    // Reading slices formed the rows, at the stored form's memory.
-    assert_eq!(
-        factored.bytes_per_particle(),
-        fresh_bytes + stored.bytes_per_particle()
-    );
-    // Rewriting the gradients in place keeps the weights (the MLS recipe).
-    let mut w = fresh.view().weights.clone();
-    let n = w.n_particles();
-    let before = rows_of(&w, 0).1;
-    let (_, s_rows, grad) = w.storage_mut(n);
-    assert_eq!(s_rows[0].to_bits(), before[0]);
-    grad.iter_mut().for_each(|g| *g *= 2.0);
-    assert!(w.factors().is_none());
-    assert_eq!(rows_of(&w, 0).1, before);
+    // Every row formed into stored weights: the stored rows, equal.
+    assert_eq!(formed.to_stored(), stored);
 }
 
 #[test]
-fn factors_read_as_the_stored_rows_in_2d() {
+fn formed_rows_read_as_the_stored_rows_in_2d() {
     for (shape, boundary) in [
         (ShapeNd::Gimp, Boundary::Fixed),
         (ShapeNd::Gimp, Boundary::Periodic),
         (ShapeNd::Linear, Boundary::Fixed),
         (ShapeNd::BSpline2, Boundary::Periodic),
     ] {
-        factors_match_stored_rows::<2>(shape, boundary);
+        formed_rows_match_stored_rows::<2>(shape, boundary);
     }
 }
 
 #[test]
-fn factors_read_as_the_stored_rows_in_3d() {
+fn formed_rows_read_as_the_stored_rows_in_3d() {
     for (shape, boundary) in [
         (ShapeNd::Gimp, Boundary::Fixed),
         (ShapeNd::Linear, Boundary::Periodic),
         (ShapeNd::BSpline2, Boundary::Periodic),
     ] {
-        factors_match_stored_rows::<3>(shape, boundary);
+        formed_rows_match_stored_rows::<3>(shape, boundary);
     }
 }
 

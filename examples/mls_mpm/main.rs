@@ -124,6 +124,8 @@ struct ControlledRun {
     error: Option<String>,
     /// The λmax refreshes and what bound the steps, for the log.
     refreshes: String,
+    /// What the controller holds ([`Controller::memory_bytes`]), for the log.
+    memory: String,
 }
 
 /// The scene under mpm-dt's standard 2D limits (sound speed, eq 56 stability, growth),
@@ -144,6 +146,7 @@ fn run_controlled(scene: Scene) -> ControlledRun {
                 wall_s: 0.0,
                 error: Some(e.to_string()),
                 refreshes: String::new(),
+                memory: String::new(),
             }
         }
     };
@@ -183,7 +186,15 @@ fn run_controlled(scene: Scene) -> ControlledRun {
         "  stability refreshes: {} (Lanczos products {}), {on_bound} proposals on the element bound, bound/λmax at the refreshes {lo:.2} … {median:.2} … {hi:.2}; steps bound by {:?}",
         refreshes.0, refreshes.1, stats.binding
     );
+    let n = s.view().x.len().max(1);
+    let memory = format!(
+        "  controller memory: {} B held, {:.1} B a particle ({n} particles, {} nodes)",
+        controller.memory_bytes(),
+        controller.memory_bytes() as f64 / n as f64,
+        s.view().node_mass.len()
+    );
     ControlledRun {
+        memory,
         steps: stats.accepted,
         rejected: stats.rejected,
         dt_mean: stats.dt_mean().unwrap_or(f64::NAN),
@@ -330,6 +341,7 @@ fn main() -> ExitCode {
     }
     let c = run_controlled(scene);
     eprintln!("{}", c.refreshes);
+    eprintln!("{}", c.memory);
     println!(
         "mpm-dt controller: {} steps ({} rejected), mean dt {:.4e} s ({:.3} h/c_p), min dt {:.4e} s, {:.2} s wall, {}",
         c.steps,

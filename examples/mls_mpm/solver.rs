@@ -387,7 +387,7 @@ impl MlsMpm {
             lame_lambda: &self.lame_lambda,
             lame_mu: &self.lame_mu,
             density: &s.density,
-            weights: &s.weights,
+            weights: (&s.weights).into(),
             node_mass: &s.node_mass,
             node_velocity: vectors(&s.node_v),
             node_acceleration: vectors(&s.node_a),

@@ -250,7 +250,7 @@ impl FlipSolver {
             lame_lambda: &s.lame_lambda,
             lame_mu: &s.lame_mu,
             density: &s.density,
-            weights: &s.weights,
+            weights: (&s.weights).into(),
             node_mass: &s.node_mass,
             node_velocity: &s.node_v,
             node_acceleration: &s.node_a,

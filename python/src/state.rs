@@ -446,7 +446,7 @@ impl<const D: usize> StateNd<D> {
             lame_lambda: &self.lame_lambda,
             lame_mu: &self.lame_mu,
             density: &self.density,
-            weights: &self.weights,
+            weights: (&self.weights).into(),
             node_mass: &self.nodal.mass,
             node_velocity: &self.nodal.velocity,
             node_acceleration: &self.nodal.acceleration,

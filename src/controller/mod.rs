@@ -172,6 +172,21 @@ where
         self.limits.iter().map(|l| l.name().to_string()).collect()
     }
 
+    /// Bytes of heap memory the controller holds between steps: its limits' arrays
+    /// ([`StepLimit::memory_bytes`]) and the filter's history. What an embedding solver pays
+    /// for the controller on top of its own state. With the standard 2D/3D limits
+    /// ([`crate::limits_nd::standard_limits`]) it is O(particles) for the temporal-error
+    /// history (`(D + D(D+1)/2)·8` bytes a particle while the stresses are symmetric,
+    /// `(D + D²)·8` otherwise) and the stability tracker's motion guard (`4D + 16`):
+    /// 100 bytes a particle in 3D and 64 in 2D for the reference solver; plus O(nodes) for
+    /// the tracker's Ritz vector (`D·8` a node). The growth monitor and the sound-speed
+    /// limit hold O(1). Passes over the particles allocate nothing per particle; a `λmax`
+    /// refresh holds its Lanczos basis (O(nodes)) while it runs.
+    pub fn memory_bytes(&self) -> usize {
+        self.limits.iter().map(|l| l.memory_bytes()).sum::<usize>()
+            + self.state.filter.history.capacity() * std::mem::size_of::<(f64, f64)>()
+    }
+
     /// Saves the controller's state and its limits' states.
     pub fn checkpoint(&self) -> ControllerCheckpoint {
         ControllerCheckpoint {

@@ -74,6 +74,10 @@ where
         self.inner.reads_nodal_stiffness()
     }
 
+    fn memory_bytes(&self) -> usize {
+        self.inner.memory_bytes()
+    }
+
     fn scale_safety(&mut self, factor: f64) {
         if factor.is_finite() && factor > 0.0 {
             self.factor *= factor;

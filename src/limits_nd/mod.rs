@@ -49,6 +49,7 @@ mod stability;
 mod stability_config;
 mod start;
 pub mod stiffness;
+mod stress_rates;
 mod temporal_error;
 mod temporal_sweep;
 mod transfer;

@@ -85,7 +85,7 @@ use super::stiffness::{diagonal_argmax, lanczos_reduced, NodalSpace};
 use super::transfer::{apic_gain, TransferNd};
 use crate::dimension::{Dim, Dimension};
 use crate::limit::{LimitError, Metrics, Proposal, StepLimit};
-use crate::nd::{Vector, ViewNd};
+use crate::nd::ViewNd;
 use crate::reduce::{Reduce, SingleProcess};
 use guard::Staleness;
 use std::rc::Rc;
@@ -94,13 +94,23 @@ use std::rc::Rc;
 pub const STABILITY: &str = "stability";
 
 /// The tracked eq 56 limit in d dimensions (module docs).
+///
+/// # Memory
+///
+/// Per particle (O(particles)): its position (in single precision) and the two moduli of
+/// `V_p C_p` at the refresh, the motion guard's references, `4D + 16` bytes (28 in 3D, 24
+/// in 2D; on a decomposed grid for every particle of the run). Per node (O(nodes)): the Ritz vector,
+/// `D·8` bytes; during a refresh also the Lanczos basis, `D·8` bytes per active node and
+/// iteration, released after it. Products with `K` form each particle's weight row and
+/// moduli as they go. [`StepLimit::memory_bytes`] sums what is held between calls.
 #[derive(Clone, Debug)]
 pub struct StabilityNd<const D: usize> {
     config: StabilityNdConfig,
     safety: f64,
     lambda: Option<f64>,
     ritz: Vec<f64>,
-    x_ref: Vec<Vector<D>>,
+    /// Positions at the refresh, in single precision ([`guard`]).
+    x_ref: Vec<[f32; D]>,
     /// `(V(dλ_t + 2μ_t), Vμ_t)` per particle at the refresh.
     moduli_ref: Vec<(f64, f64)>,
     /// Smallest active nodal mass at the refresh.
@@ -478,5 +488,11 @@ where
 
     fn set_reduce(&mut self, reduce: Rc<dyn Reduce>) {
         self.reduce = reduce;
+    }
+
+    fn memory_bytes(&self) -> usize {
+        self.x_ref.capacity() * std::mem::size_of::<[f32; D]>()
+            + self.moduli_ref.capacity() * std::mem::size_of::<(f64, f64)>()
+            + self.ritz.capacity() * std::mem::size_of::<f64>()
     }
 }

@@ -36,42 +36,22 @@ pub fn apply<const D: usize>(view: &ViewNd<'_, D>, u: &[f64], y: &mut [f64]) {
     apply_scaled(view, &inverse_sqrt_mass(view), u, y);
 }
 
-/// [`apply`] with `M^{-1/2}` given ([`inverse_sqrt_mass`]). (The crate's repeated
-/// products form the particles' moduli once and reuse them.)
+/// [`apply`] with `M^{-1/2}` given ([`inverse_sqrt_mass`]). A particle's
+/// `(V_p λ_t, V_p μ_t)`, `V_p = det(F_p) V⁰_p`, is formed in the product, as its weight row
+/// is: repeated products keep no per-particle array.
 pub fn apply_scaled<const D: usize>(
     view: &ViewNd<'_, D>,
     inv_sqrt_m: &[f64],
     u: &[f64],
     y: &mut [f64],
 ) {
-    apply_with(view, inv_sqrt_m, &volume_moduli(view), u, y);
-}
-
-/// `(V_p λ_t, V_p μ_t)` per particle, `V_p = det(F_p) V⁰_p`: what every product with `K`
-/// reads of a particle besides its weights, formed once for repeated products.
-pub(super) fn volume_moduli<const D: usize>(view: &ViewNd<'_, D>) -> Vec<(f64, f64)> {
-    (0..view.n_particles())
-        .map(|p| {
-            let vol = view.volume(p);
-            (vol * view.lame_lambda[p], vol * view.lame_mu[p])
-        })
-        .collect()
-}
-
-/// [`apply_scaled`] with the particles' [`volume_moduli`] given.
-pub(super) fn apply_with<const D: usize>(
-    view: &ViewNd<'_, D>,
-    inv_sqrt_m: &[f64],
-    moduli: &[(f64, f64)],
-    u: &[f64],
-    y: &mut [f64],
-) {
     let nn = view.n_nodes();
     debug_assert!(u.len() == nn * D && y.len() == nn * D && inv_sqrt_m.len() == nn);
-    debug_assert_eq!(moduli.len(), view.n_particles());
     y.fill(0.0);
     let w = &view.weights;
-    for (p, &(vol_lambda, vol_mu)) in moduli.iter().enumerate() {
+    for p in 0..view.n_particles() {
+        let vol = view.volume(p);
+        let (vol_lambda, vol_mu) = (vol * view.lame_lambda[p], vol * view.lame_mu[p]);
         w.with_row(p, |nodes, _, grads| {
             let mut l = Tensor::<D>::zeros();
             for (&i, g) in nodes.iter().zip(grads) {
@@ -305,11 +285,10 @@ pub fn dense<const D: usize>(view: &ViewNd<'_, D>) -> Mat<f64> {
     let mut e = vec![0.0; n];
     let mut col = vec![0.0; n];
     let inv_sqrt_m = inverse_sqrt_mass(view);
-    let moduli = volume_moduli(view);
     for j in 0..n {
         e.fill(0.0);
         e[j] = 1.0;
-        apply_with(view, &inv_sqrt_m, &moduli, &e, &mut col);
+        apply_scaled(view, &inv_sqrt_m, &e, &mut col);
         for (i, &c) in col.iter().enumerate() {
             a[(i, j)] = c;
         }
@@ -406,7 +385,6 @@ pub fn lanczos_reduced<const D: usize>(
     let mut qf = vec![0.0; n];
     let mut wf = vec![0.0; n];
     let inv_sqrt_m = inverse_sqrt_mass(view);
-    let moduli = volume_moduli(view);
     // (Ritz value, residual bound, coordinates in the basis) of the latest iteration.
     let mut best: (f64, f64, Vec<f64>) = (0.0, f64::INFINITY, vec![1.0]);
     // Consecutive iterations in which the Ritz value moved by less than `tol·λ/10`.
@@ -415,7 +393,7 @@ pub fn lanczos_reduced<const D: usize>(
         for (&c, &v) in comps.iter().zip(&qc) {
             qf[c] = v;
         }
-        apply_with(view, &inv_sqrt_m, &moduli, &qf, &mut wf);
+        apply_scaled(view, &inv_sqrt_m, &qf, &mut wf);
         space.complete(&mut wf);
         let mut w = gather(&wf);
         let a = dots(&[&qc], &w)[0];

@@ -64,36 +64,61 @@
 //! **Not carried over:** the balancing of eq 44's spatial error (`balance`), whose
 //! estimators are 1D; a configured `balance` is reported as an error, not ignored.
 
-use super::temporal_sweep::{sweep, History, Pairing, Weights, LEFT_OUT, NONE};
-use crate::controller::deferral::{self, DeferredTrial};
+use super::temporal_sweep::{rates_into, stamp, sweep, History, Pairing, Weights, LEFT_OUT, NONE};
+use crate::controller::deferral::{self, Deferral, DeferredTrial};
 use crate::controller::{metric, TemporalErrorConfig, TEMPORAL_ERROR};
 use crate::dimension::{Dim, Dimension};
 use crate::limit::{Judgement, LimitError, Metrics, Proposal, RejectCause, StepLimit, Verdict};
-use crate::nd::{Tensor, Vector, ViewNd};
+use crate::nd::{Vector, ViewNd};
 
 /// Relative growth of a field scale over the previous step's below which the weights keep
 /// the previous scale (one pass over the particles instead of two).
 const SCALE_SLACK: f64 = 0.1;
 
 /// What one estimate gives.
+#[derive(Clone, Copy, Debug)]
 struct Estimate {
     dsm: f64,
     dsm_v: f64,
     dsm_sigma: f64,
     /// Particles in the norm (`N`).
     count: usize,
+    /// `‖v‖_∞`, `‖σ‖_∞` of the trial (module docs).
+    v_scale: f64,
+    sigma_scale: f64,
+}
+
+/// The last judged trial: its start time and step, its estimate, and — only where
+/// particles changed process in it — its rates (else they are written into the history
+/// in place when it is accepted).
+#[derive(Clone, Debug)]
+struct Judged<const D: usize> {
+    t: f64,
+    dt: f64,
+    estimate: Estimate,
+    rates: Option<History<D>>,
 }
 
 /// The temporal-error limit in `d` dimensions: proposes nothing itself (the controller's
 /// filter does, from the `dsm` it reports) and judges each trial by `dsm ≤ 1` (module
 /// docs). The per-particle arrays are allocated once per run and reused.
+///
+/// # Memory
+///
+/// One history of rates per particle (O(particles)): `a_p` and `σ̇_p`, `(D + D²)·8` bytes
+/// (96 in 3D, 48 in 2D), or `(D + D(D+1)/2)·8` (72, 40) while the stress rates are
+/// symmetric, as the reference solver's are ([`super::stress_rates`]), plus the run-wide ids on a grid-decomposed run (8). A judged
+/// trial's rates are not kept: when it is accepted they are formed again from the two
+/// states, `(u^{n+1} − u^n)/dt` with the same operations, and written over the history
+/// in place. Only where particles changed process in a trial (a grid-decomposed run) are
+/// its rates formed into a second history while it is judged, and the run-wide id table
+/// kept (4 bytes per particle of the whole run). [`Self::memory_bytes`] sums what is held.
 #[derive(Clone, Debug)]
 pub struct TemporalErrorNd<const D: usize> {
     config: TemporalErrorConfig,
     history: Option<History<D>>,
-    /// The rates of the last judged trial with its start time `(t, rates)` (its step is
-    /// `rates.dt`), reused by `accepted`.
-    judged: Option<(f64, History<D>)>,
+    /// The last judged trial, reused by `accepted`.
+    judged: Option<Judged<D>>,
     /// A history no longer needed, whose arrays the next estimate overwrites.
     spare: Option<History<D>>,
     /// Run-wide id → committed index (grid-decomposed runs, steps where particles moved).
@@ -201,7 +226,7 @@ impl<const D: usize> TemporalErrorNd<D> {
         before: &ViewNd<'_, D>,
         after: &ViewNd<'_, D>,
         dt: f64,
-        out: &mut History<D>,
+        mut out: Option<&mut History<D>>,
     ) -> Result<Estimate, LimitError> {
         self.supported()?;
         Self::check(before)?;
@@ -234,11 +259,13 @@ impl<const D: usize> TemporalErrorNd<D> {
                 }
         });
         // Every entry is written by the first sweep (the arrays keep their length).
-        out.accel.resize(n, Vector::<D>::zeros());
-        out.stress_rate.resize(n, Tensor::<D>::zeros());
-        out.ids.clear();
-        if let Some(ids) = split {
-            out.ids.extend_from_slice(ids);
+        if let Some(out) = out.as_deref_mut() {
+            out.accel.resize(n, Vector::<D>::zeros());
+            out.stress_rate.reset(n);
+            out.ids.clear();
+            if let Some(ids) = split {
+                out.ids.extend_from_slice(ids);
+            }
         }
         // The weights need this trial's field scales, known only after a pass: the first
         // sweep uses the previous step's, and a second sweep, writing nothing, redoes the
@@ -270,7 +297,14 @@ impl<const D: usize> TemporalErrorNd<D> {
             // step's own scales, as a second sweep would take them.
             None => scales(sweep(before, after, dt, &pair, None, None).maxima),
         };
-        let first = sweep(before, after, dt, &pair, weights(prev_v, prev_s), Some(out));
+        let first = sweep(
+            before,
+            after,
+            dt,
+            &pair,
+            weights(prev_v, prev_s),
+            out.as_deref_mut(),
+        );
         let finite = first.finite;
         let (v_scale, sigma_scale) = scales(first.maxima);
         let grew = |new: f64, prev: f64| new > (1.0 + SCALE_SLACK) * prev;
@@ -280,9 +314,9 @@ impl<const D: usize> TemporalErrorNd<D> {
             let w = weights(v_scale.max(prev_v), sigma_scale.max(prev_s));
             sweep(before, after, dt, &pair, w, None)
         };
-        out.dt = dt;
-        out.v_scale = v_scale;
-        out.sigma_scale = sigma_scale;
+        if let Some(out) = out {
+            stamp(out, dt, v_scale, sigma_scale);
+        }
         let [sum_v, sum_s] = sweep.sums;
         let nf = sweep.count.max(1) as f64;
         // A non-finite rate is a non-finite trial: `dsm` NaN rejects it (the maxima and
@@ -297,12 +331,79 @@ impl<const D: usize> TemporalErrorNd<D> {
             dsm_v: (sum_v / nf).sqrt(),
             dsm_sigma: (sum_s / nf).sqrt(),
             count: sweep.count,
+            v_scale,
+            sigma_scale,
         })
     }
 
     /// A history whose arrays the next estimate overwrites.
     fn take_buffer(&mut self) -> History<D> {
         self.spare.take().unwrap_or_default()
+    }
+
+    /// Whether particles changed process in the trial: a grid-decomposed run whose trial
+    /// holds other run-wide ids than the committed state.
+    fn moved(before: &ViewNd<'_, D>, after: &ViewNd<'_, D>) -> bool {
+        matches!((before.split, after.split), (Some(b), Some(a)) if a.particle_id != b.particle_id)
+    }
+
+    /// The estimate of a trial; where particles changed process in it, with its rates
+    /// formed into a history of their own.
+    fn judge_trial(
+        &mut self,
+        before: &ViewNd<'_, D>,
+        after: &ViewNd<'_, D>,
+        dt: f64,
+    ) -> Result<Judged<D>, LimitError> {
+        let mut rates = Self::moved(before, after).then(|| self.take_buffer());
+        match self.estimate(before, after, dt, rates.as_mut()) {
+            Ok(estimate) => Ok(Judged {
+                t: before.t,
+                dt,
+                estimate,
+                rates,
+            }),
+            Err(err) => {
+                if rates.is_some() {
+                    self.spare = rates;
+                }
+                Err(err)
+            }
+        }
+    }
+
+    /// The accepted trial's rates written over the history in place, with the schedule
+    /// that follows its check (what [`deferral::install`] gives a new history).
+    fn install_in_place(
+        &mut self,
+        before: &ViewNd<'_, D>,
+        after: &ViewNd<'_, D>,
+        dt: f64,
+        e: &Estimate,
+    ) {
+        let previous = self.history.as_ref().map(|h| h.defer);
+        let mut h = self
+            .history
+            .take()
+            .or_else(|| self.spare.take())
+            .unwrap_or_default();
+        rates_into(before, after, dt, &mut h);
+        stamp(&mut h, dt, e.v_scale, e.sigma_scale);
+        h.defer = Deferral::after_check(previous, e.dsm, &self.config);
+        self.history = Some(h);
+    }
+
+    /// Bytes of the per-particle arrays held (their capacities): the history, a judged
+    /// trial's rates and a spare history (grid-decomposed runs where particles moved), the
+    /// id table.
+    pub fn memory_bytes(&self) -> usize {
+        let judged = self.judged.as_ref().and_then(|j| j.rates.as_ref());
+        [self.history.as_ref(), judged, self.spare.as_ref()]
+            .into_iter()
+            .flatten()
+            .map(History::heap_bytes)
+            .sum::<usize>()
+            + self.slot_before.capacity() * std::mem::size_of::<u32>()
     }
 }
 
@@ -333,16 +434,9 @@ where
             self.deferred = Some(DeferredTrial { t: before.t, dt });
             return Ok(DeferredTrial::judgement(predicted));
         }
-        let mut rates = self.take_buffer();
-        let e = match self.estimate(before, after, dt, &mut rates) {
-            Ok(e) => e,
-            Err(err) => {
-                self.spare = Some(rates);
-                return Err(err);
-            }
-        };
-        rates.defer.dsm = e.dsm;
-        if let Some((_, old)) = self.judged.replace((before.t, rates)) {
+        let judged = self.judge_trial(before, after, dt)?;
+        let e = judged.estimate;
+        if let Some(old) = self.judged.replace(judged).and_then(|j| j.rates) {
             self.spare = Some(old);
         }
         let mut metrics = Metrics::new();
@@ -369,42 +463,55 @@ where
         if deferral::spend_deferred(&mut self.history, self.deferred.take(), before.t, dt) {
             return;
         }
-        // The judged trial's rates when it is this one, else recomputed.
-        let new = match self.judged.take() {
-            Some((t, h)) if t.to_bits() == before.t.to_bits() && h.dt.to_bits() == dt.to_bits() => {
-                Some(h)
+        // The judged trial's estimate when it is this one, else estimated again.
+        let judged = match self.judged.take() {
+            Some(j) if j.t.to_bits() == before.t.to_bits() && j.dt.to_bits() == dt.to_bits() => {
+                Ok(j)
             }
             stale => {
-                let mut h = match stale {
-                    Some((_, h)) => h,
-                    None => self.take_buffer(),
-                };
-                match self.estimate(before, after, dt, &mut h) {
-                    Ok(e) => {
-                        h.defer.dsm = e.dsm;
-                        Some(h)
-                    }
-                    Err(_) => {
-                        self.spare = Some(h);
-                        None
-                    }
+                if let Some(h) = stale.and_then(|j| j.rates) {
+                    self.spare = Some(h);
                 }
+                self.judge_trial(before, after, dt)
             }
         };
-        if let Some(old) = deferral::install(&mut self.history, new, &self.config) {
-            self.spare = Some(old);
+        let old = match judged {
+            Ok(Judged {
+                estimate,
+                rates: None,
+                ..
+            }) => {
+                self.install_in_place(before, after, dt, &estimate);
+                None
+            }
+            Ok(Judged {
+                estimate,
+                rates: Some(mut h),
+                ..
+            }) => {
+                h.defer.dsm = estimate.dsm;
+                deferral::install(&mut self.history, Some(h), &self.config)
+            }
+            Err(_) => deferral::install(&mut self.history, None, &self.config),
+        };
+        if old.is_some() {
+            self.spare = old;
         }
     }
 
     /// Any rejection ends a deferral: the next trial is checked.
     fn rejected(&mut self, _dt: f64, _cause: RejectCause) {
-        if let Some((_, h)) = self.judged.take() {
+        if let Some(h) = self.judged.take().and_then(|j| j.rates) {
             self.spare = Some(h);
         }
         self.deferred = None;
         if let Some(h) = self.history.as_mut() {
             h.defer.reset();
         }
+    }
+
+    fn memory_bytes(&self) -> usize {
+        TemporalErrorNd::memory_bytes(self)
     }
 
     fn save_state(&self) -> Option<serde_json::Value> {

@@ -2,6 +2,7 @@
 //! keeps, how trial particles find their committed state and history, and the sweep that
 //! forms the rates, the field-scale maxima and the sums of the scaled errors.
 
+use super::stress_rates::StressRates;
 use crate::controller::deferral::{Deferral, Scheduled};
 use crate::nd::{Tensor, Vector, ViewNd};
 use serde::{Deserialize, Serialize};
@@ -19,8 +20,8 @@ pub(super) struct History<const D: usize> {
     pub dt: f64,
     /// `(v^{n+1} − v^n)/dt` per particle.
     pub accel: Vec<Vector<D>>,
-    /// `(σ^{n+1} − σ^n)/dt` per particle.
-    pub stress_rate: Vec<Tensor<D>>,
+    /// `(σ^{n+1} − σ^n)/dt` per particle (packed while symmetric, [`StressRates`]).
+    pub stress_rate: StressRates<D>,
     /// Run-wide particle ids, on a grid-decomposed run (else empty: the index is the id).
     pub ids: Vec<u64>,
     /// `‖v‖_∞` of the step (module docs of [`super::TemporalErrorNd`]).
@@ -65,6 +66,47 @@ impl<const D: usize> History<D> {
             && self.dt > 0.0
             && self.defer.consistent()
     }
+}
+
+impl<const D: usize> History<D> {
+    /// Bytes of its arrays (their capacities).
+    pub fn heap_bytes(&self) -> usize {
+        self.accel.capacity() * std::mem::size_of::<Vector<D>>()
+            + self.stress_rate.heap_bytes()
+            + self.ids.capacity() * std::mem::size_of::<u64>()
+    }
+}
+
+/// Writes the rates `(v^{n+1} − v^n)/dt`, `(σ^{n+1} − σ^n)/dt` of a step whose trial keeps
+/// its particles in their committed order into `out`, with the same operations as
+/// [`sweep`] (so the same values, bit for bit), and the trial's run-wide ids.
+pub(super) fn rates_into<const D: usize>(
+    before: &ViewNd<'_, D>,
+    after: &ViewNd<'_, D>,
+    dt: f64,
+    out: &mut History<D>,
+) {
+    let inv_dt = 1.0 / dt;
+    let n = after.n_particles().min(before.n_particles());
+    out.accel.clear();
+    out.accel
+        .extend((0..n).map(|p| (after.v[p] - before.v[p]) * inv_dt));
+    out.stress_rate.reset(n);
+    for p in 0..n {
+        out.stress_rate
+            .set(p, (after.sigma[p] - before.sigma[p]) * inv_dt);
+    }
+    out.ids.clear();
+    if let Some(split) = after.split {
+        out.ids.extend_from_slice(split.particle_id);
+    }
+}
+
+/// Stamps a history with the step it was formed over and the step's field scales.
+pub(super) fn stamp<const D: usize>(out: &mut History<D>, dt: f64, v_scale: f64, sigma_scale: f64) {
+    out.dt = dt;
+    out.v_scale = v_scale;
+    out.sigma_scale = sigma_scale;
 }
 
 /// What one sweep over the particles gives.
@@ -168,7 +210,7 @@ pub(super) fn sweep<const D: usize>(
             acc.finite &= (accel.norm_squared() + stress_rate.norm_squared()).is_finite();
             if let Some(out) = out.as_deref_mut() {
                 out.accel[p] = accel;
-                out.stress_rate[p] = stress_rate;
+                out.stress_rate.set(p, stress_rate);
             }
             // The history of committed particle `q`, unless it was left out.
             let hist = pair.history.filter(|hist| match pair.before_ids {
@@ -181,7 +223,7 @@ pub(super) fn sweep<const D: usize>(
                     let inv_span = 2.0 / (dt + hist.dt + 2.0 * hist.defer.gap);
                     (
                         (accel - hist.accel[q]) * inv_span,
-                        (stress_rate - hist.stress_rate[q]) * inv_span,
+                        (stress_rate - hist.stress_rate.get(q)) * inv_span,
                     )
                 }
                 None => {

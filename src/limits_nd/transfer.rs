@@ -145,7 +145,7 @@ mod tests {
         }
         let mls = WeightsNd::from_rows(w.n_nodes(), w.width(), nodes, s, grad).unwrap();
         let view = ViewNd {
-            weights: &mls,
+            weights: (&mls).into(),
             ..view
         };
         let y: Vec<f64> = (0..view.n_nodes())

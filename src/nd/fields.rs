@@ -21,7 +21,7 @@ pub fn compute_weights<const D: usize>(
     domain: &[Vector<D>],
     weights: &mut WeightsNd<D>,
 ) -> Result<(), usize> {
-    kernels::compute_weights(grid, shape, x, domain, weights, false)
+    kernels::compute_weights(grid, shape, x, domain, weights)
 }
 
 /// The nodal fields of one state (module docs), in reusable buffers.
@@ -74,7 +74,7 @@ impl<const D: usize> NodalFieldsNd<D> {
             self.constrained_on = Some(grid.clone());
         }
         kernels::particle_to_grid(
-            weights,
+            &weights.into(),
             particles.mass,
             particles.volume0,
             particles.v,

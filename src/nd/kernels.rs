@@ -3,21 +3,19 @@
 //! tensor-product stencil (`nodes_per_axis^D` entries per particle).
 
 use super::factors::{form_row, AxisFactors};
-use super::{GridNd, MaterialNd, ShapeNd, SummaryNd, Tensor, Vector, WeightsNd};
+use super::{GridNd, MaterialNd, ShapeNd, SummaryNd, Tensor, Vector, ViewWeightsNd, WeightsNd};
 use crate::grid::Boundary;
 use crate::reduce::Reduce;
 
-/// Fills `weights` with `S_ip`, `∇S_ip` at positions `x` (module docs of `shape`): as
-/// per-axis factors with `factored` (the reference solver's form, [`super::factors`]), else
-/// as stored rows formed from them. Returns the first particle whose stencil leaves the
-/// stored nodes (a fixed axis), if any.
+/// Fills `weights` with `S_ip`, `∇S_ip` at positions `x` as stored rows formed from the
+/// per-axis factors ([`super::factors`]). Returns the first particle whose stencil leaves
+/// the stored nodes (a fixed axis), if any.
 pub(super) fn compute_weights<const D: usize>(
     grid: &GridNd<D>,
     shape: ShapeNd,
     x: &[Vector<D>],
     domain: &[Vector<D>],
     weights: &mut WeightsNd<D>,
-    factored: bool,
 ) -> Result<(), usize> {
     let n_axis = shape.nodes_per_axis();
     let width = shape.width(D);
@@ -25,14 +23,6 @@ pub(super) fn compute_weights<const D: usize>(
         *weights = WeightsNd::new(grid.n_nodes(), width);
     }
     let strides: [usize; D] = std::array::from_fn(|a| grid.stride(a));
-    if factored {
-        if let Some(factors) = weights.factors_mut(x.len(), n_axis) {
-            for (p, f) in factors.iter_mut().enumerate() {
-                *f = axis_factors(grid, shape, &strides, &x[p], &domain[p]).ok_or(p)?;
-            }
-            return Ok(());
-        }
-    }
     let (nodes, s, grad) = weights.storage_mut(x.len());
     for p in 0..x.len() {
         let f = axis_factors(grid, shape, &strides, &x[p], &domain[p]).ok_or(p)?;
@@ -48,10 +38,29 @@ pub(super) fn compute_weights<const D: usize>(
     Ok(())
 }
 
+/// The first particle whose stencil leaves the stored nodes (only past a fixed wall: on
+/// periodic axes every stencil wraps onto stored nodes), if any: the check that lets a
+/// state's views form their rows on demand ([`super::ViewWeightsNd`]).
+pub(super) fn check_stencils<const D: usize>(
+    grid: &GridNd<D>,
+    shape: ShapeNd,
+    x: &[Vector<D>],
+    domain: &[Vector<D>],
+) -> Result<(), usize> {
+    if grid.boundary.iter().all(|&b| b == Boundary::Periodic) {
+        return Ok(());
+    }
+    let strides: [usize; D] = std::array::from_fn(|a| grid.stride(a));
+    for (p, (x, l)) in x.iter().zip(domain).enumerate() {
+        axis_factors(grid, shape, &strides, x, l).ok_or(p)?;
+    }
+    Ok(())
+}
+
 /// The per-axis factors of a particle at `x` with GIMP domain `l`; `None` if its stencil
 /// leaves the stored nodes.
 #[inline]
-fn axis_factors<const D: usize>(
+pub(super) fn axis_factors<const D: usize>(
     grid: &GridNd<D>,
     shape: ShapeNd,
     strides: &[usize; D],
@@ -102,7 +111,7 @@ pub(super) type NodalCompletion<'a, const D: usize> =
 /// constrained or have `m_i ≤ threshold` are inactive, with `v_i = a_i = 0`.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn particle_to_grid<const D: usize>(
-    weights: &WeightsNd<D>,
+    weights: &ViewWeightsNd<'_, D>,
     mass: &[f64],
     volume0: &[f64],
     v: &[Vector<D>],
@@ -191,7 +200,7 @@ pub(super) struct Committed<'a, const D: usize> {
     pub v: &'a [Vector<D>],
     pub sigma: &'a [Tensor<D>],
     pub f: &'a [Tensor<D>],
-    pub weights: &'a WeightsNd<D>,
+    pub weights: ViewWeightsNd<'a, D>,
     pub node_a: &'a [Vector<D>],
 }
 
@@ -202,8 +211,8 @@ pub(super) struct Written<'a, const D: usize> {
     pub sigma: &'a mut [Tensor<D>],
     pub f: &'a mut [Tensor<D>],
     pub density: &'a mut [f64],
-    pub lame_lambda: &'a mut [f64],
-    pub lame_mu: &'a mut [f64],
+    /// The tangent moduli `(λ_t, μ_t)`; `None` where they are constant (not written).
+    pub moduli: Option<(&'a mut [f64], &'a mut [f64])>,
 }
 
 /// Grid → particle: `v_p += dt Σ S a_i`, `L_p = Σ v_iⁿ⁺¹ ⊗ ∇S_ip`, `F ← F + dt L F`, the
@@ -222,7 +231,7 @@ pub(super) fn grid_to_particle<const D: usize>(
     node_v1: &[Vector<D>],
     dt: f64,
     from: Committed<'_, D>,
-    into: Written<'_, D>,
+    mut into: Written<'_, D>,
     summarize: bool,
 ) -> Result<SummaryNd<D>, ParticleFault> {
     let mut summary = SummaryNd {
@@ -301,9 +310,9 @@ pub(super) fn grid_to_particle<const D: usize>(
         into.f[p] = f;
         into.sigma[p] = sigma;
         into.density[p] = mass[p] / (j * volume0[p]);
-        let (lt, mt) = material[p].tangent(j);
-        into.lame_lambda[p] = lt;
-        into.lame_mu[p] = mt;
+        if let Some((lambda, mu)) = into.moduli.as_mut() {
+            (lambda[p], mu[p]) = material[p].tangent(j);
+        }
     }
     Ok(summary)
 }

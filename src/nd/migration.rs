@@ -66,8 +66,11 @@ pub(super) fn migrate<const D: usize>(
     s.sigma = retain(&s.sigma, &keep);
     s.f = retain(&s.f, &keep);
     s.density = retain(&s.density, &keep);
-    s.lame_lambda = retain(&s.lame_lambda, &keep);
-    s.lame_mu = retain(&s.lame_mu, &keep);
+    // The moduli of this trial alone (a copy where they were shared with the committed
+    // state, which keeps its particles).
+    let moduli = Rc::make_mut(&mut s.moduli);
+    moduli.lambda = retain(&moduli.lambda, &keep);
+    moduli.mu = retain(&moduli.mu, &keep);
     for r in arrived.chunks_exact(record_len(D)) {
         let r = ParticleRecord::<D>::read(r);
         s.x.push(r.x);
@@ -75,8 +78,8 @@ pub(super) fn migrate<const D: usize>(
         s.sigma.push(r.sigma);
         s.f.push(r.f);
         s.density.push(r.density);
-        s.lame_lambda.push(r.lame.0);
-        s.lame_mu.push(r.lame.1);
+        moduli.lambda.push(r.lame.0);
+        moduli.mu.push(r.lame.1);
         carried.mass.push(r.mass);
         carried.volume0.push(r.volume0);
         carried.domain.push(r.domain);
@@ -95,7 +98,7 @@ fn record_of<const D: usize>(s: &StateNd<D>, p: usize) -> ParticleRecord<D> {
         sigma: s.sigma[p],
         f: s.f[p],
         density: s.density[p],
-        lame: (s.lame_lambda[p], s.lame_mu[p]),
+        lame: (s.moduli.lambda[p], s.moduli.mu[p]),
         mass: c.mass[p],
         volume0: c.volume0[p],
         domain: c.domain[p],

@@ -19,6 +19,7 @@ mod shape;
 mod slab;
 mod solver;
 mod view;
+mod view_weights;
 mod weights;
 
 pub use grid::GridNd;
@@ -28,6 +29,7 @@ pub use shape::{AxisStencil, ShapeNd};
 pub use slab::MIN_CELLS as MIN_SLAB_CELLS;
 pub use solver::{SolverNd, INACTIVE_MASS_RATIO};
 pub use view::{NodalHalo, SplitNd, SummaryNd, ViewNd};
+pub use view_weights::ViewWeightsNd;
 pub use weights::{WeightsNd, WeightsNdError};
 
 use nalgebra::{SMatrix, SVector};

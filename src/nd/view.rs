@@ -1,7 +1,7 @@
 //! A read-only view of one state of a d-dimensional MPM solver: what the limits, the
 //! estimators and the controller read. The d-dimensional counterpart of [`crate::View`].
 
-use super::{GridNd, Tensor, Vector, WeightsNd};
+use super::{GridNd, Tensor, Vector, ViewWeightsNd};
 use crate::dimension::StateView;
 
 /// A read-only view of one state of a `D`-dimensional solver. Particle slices all have the
@@ -38,8 +38,9 @@ pub struct ViewNd<'a, const D: usize> {
     pub lame_mu: &'a [f64],
     /// Current density `ρ_p = m_p / (det(F_p) V⁰_p)`.
     pub density: &'a [f64],
-    /// `S_ip` and `∇S_ip` at this state's particle positions.
-    pub weights: &'a WeightsNd<D>,
+    /// `S_ip` and `∇S_ip` at this state's particle positions: stored by the stepper
+    /// (`(&weights).into()`), or formed when a pass reads a row ([`ViewWeightsNd`]).
+    pub weights: ViewWeightsNd<'a, D>,
     /// Nodal masses `m_i = Σ_p S_ip m_p`.
     pub node_mass: &'a [f64],
     /// Nodal velocities `v_i` (zero at inactive and constrained nodes).

@@ -1,9 +1,27 @@
 //! The stability limit's motion guard: the positions and moduli of the analysed state,
 //! and whether the current state is still close enough to it (the parent module's docs).
+//!
+//! The positions are kept relative to the grid's origin in single precision (12 bytes a
+//! particle in 3D instead of 24): a particle counts as moved past `refresh_cells·h` when
+//! its displacement from the rounded reference exceeds the threshold lowered by `2^-22`
+//! of the coordinates' magnitude (and the period's), a bound on the rounding. The guard thus refreshes whenever the exact
+//! positions would make it refresh, and in addition only when a displacement lies within
+//! that bound (about `10⁻⁷` of a coordinate) below the threshold.
 
 use super::StabilityNd;
 use crate::limits_nd::stiffness::diagonal_argmax;
 use crate::nd::{Vector, ViewNd};
+
+/// Relative bound on the difference between a position and its single-precision
+/// reference, with the rounding of the displacement's arithmetic: `2^-22`, four times the
+/// half-ulp `2^-24` of `f32`.
+const REFERENCE_ROUNDING: f64 = 1.0 / (1u64 << 22) as f64;
+
+/// A position relative to the grid's `origin`, rounded to single precision (a motion-guard
+/// reference: 4 bytes an axis).
+fn single<const D: usize>(x: &Vector<D>, origin: &[f64; D]) -> [f32; D] {
+    std::array::from_fn(|a| (x[a] - origin[a]) as f32)
+}
 
 /// What the guard found against the analysed state.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -99,20 +117,34 @@ impl<const D: usize> StabilityNd<D> {
         for p in 0..view.n_particles() {
             let key = Self::key(view, p);
             if check_motion && !moved {
-                let dx = view.x[p] - self.x_ref[key];
+                let x_ref = &self.x_ref[key];
                 for a in 0..D {
-                    if dx[a].abs() <= lim * h[a] {
+                    let (x, xr) = (view.x[p][a] - grid.origin[a], f64::from(x_ref[a]));
+                    let dx = x - xr;
+                    // The reference is the position rounded to single precision: the
+                    // threshold is lowered by a bound on that rounding (and on the
+                    // arithmetic's), so the guard refreshes whenever the exact positions
+                    // would have it refresh.
+                    let scale = xr.abs()
+                        + x.abs()
+                        + if period[a].is_finite() {
+                            period[a]
+                        } else {
+                            0.0
+                        };
+                    let allowed = lim * h[a] - scale * REFERENCE_ROUNDING;
+                    if dx.abs() <= allowed {
                         continue;
                     }
                     let d = if period[a].is_finite() {
-                        dx[a] - period[a] * (dx[a] / period[a]).round()
+                        dx - period[a] * (dx / period[a]).round()
                     } else {
-                        dx[a]
+                        dx
                     };
                     if d.is_nan() {
                         return Staleness::Stale;
                     }
-                    moved |= d.abs() > lim * h[a];
+                    moved |= d.abs() > allowed;
                 }
             }
             let (bulk, shear) = Self::moduli(view, p);
@@ -144,8 +176,9 @@ impl<const D: usize> StabilityNd<D> {
     /// reference staying the refresh's (the calibrated bound re-anchored,
     /// [`crate::limits_nd::bound_tracking`]; an undivided grid only).
     pub(super) fn reanchor_positions(&mut self, view: &ViewNd<'_, D>) {
+        let origin = view.grid.origin;
         self.x_ref.clear();
-        self.x_ref.extend_from_slice(view.x);
+        self.x_ref.extend(view.x.iter().map(|x| single(x, &origin)));
     }
 
     /// Keeps the positions and moduli of the analysed state. On a decomposed grid the
@@ -153,11 +186,14 @@ impl<const D: usize> StabilityNd<D> {
     /// `n_total·(D + 2)` numbers), as particles move between processes before the next
     /// comparison; this costs `n_total·(D + 2)` numbers of memory on every process.
     pub(super) fn store_references(&mut self, view: &ViewNd<'_, D>) {
+        let origin = view.split.as_ref().map_or(view.grid, |s| s.whole).origin;
         let Some(split) = &view.split else {
-            self.x_ref = view.x.to_vec();
-            self.moduli_ref = (0..view.n_particles())
-                .map(|p| Self::moduli(view, p))
-                .collect();
+            // Overwritten in place: no second copy while the old references are dropped.
+            self.x_ref.clear();
+            self.x_ref.extend(view.x.iter().map(|x| single(x, &origin)));
+            self.moduli_ref.clear();
+            self.moduli_ref
+                .extend((0..view.n_particles()).map(|p| Self::moduli(view, p)));
             return;
         };
         let n = split.n_particles_total;
@@ -173,7 +209,7 @@ impl<const D: usize> StabilityNd<D> {
         Self::agreement(&*self.reduce, view).sum(&mut buf);
         self.x_ref = buf
             .chunks_exact(w)
-            .map(|c| Vector::<D>::from_column_slice(&c[..D]))
+            .map(|c| single(&Vector::<D>::from_column_slice(&c[..D]), &origin))
             .collect();
         self.moduli_ref = buf.chunks_exact(w).map(|c| (c[D], c[D + 1])).collect();
     }

@@ -176,8 +176,8 @@ impl ScenarioNd {
 }
 
 /// Peak bytes per particle of a controlled run of the reference solver, rounded up from
-/// the measured 0.71 kB (2D) and 1.12 kB (3D) at 10⁶ particles (`docs/performance.md`).
-const PEAK_BYTES_PER_PARTICLE: [f64; 4] = [0.0, 400.0, 800.0, 1200.0];
+/// the measured 389 B (2D) and 615 B (3D) at 10⁶ particles (`docs/performance.md`).
+const PEAK_BYTES_PER_PARTICLE: [f64; 4] = [0.0, 400.0, 450.0, 700.0];
 
 /// Refuses up front a run of `n` particles on `n_cells` cells that the available memory
 /// cannot hold (the nodal fields and the tracker's vectors about 1 kB a node).

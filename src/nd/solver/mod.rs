@@ -1,16 +1,30 @@
 //! [`SolverNd`]: the reference d-dimensional update-stress-last solver (D = 2, 3).
 //!
-//! One step from a committed state whose weights and nodal fields are known (docs/design.md, "The
+//! One step from a committed state whose nodal fields are known (docs/design.md, "The
 //! USL step in d dimensions"): `v_iⁿ⁺¹ = v_i + dt a_i`; grid → particle
-//! ([`super::kernels`]); then, at the new positions, the weights and the particle → grid
-//! pass that the *next* step starts from. A step therefore costs one particle → grid and
-//! one grid → particle pass, and every state — committed or trial — carries the weights
-//! and nodal fields of its own particle positions, as the [`ViewNd`] promises.
+//! ([`super::kernels`]); then, at the new positions, the particle → grid pass that the
+//! *next* step starts from. A step therefore costs one particle → grid and one grid →
+//! particle pass, and every state — committed or trial — carries the nodal fields of its
+//! own particle positions, as the [`ViewNd`] promises. No state stores its weights: every
+//! pass forms a particle's row from its position, GIMP domain, the grid and the shape
+//! ([`ViewWeightsNd`]), bit for bit the row a stored form would hold.
 //!
 //! The trial is written into a second buffer; [`Stepper::accept`] swaps the buffers and
 //! [`Stepper::reject`] drops the trial, so the committed state is never written by a trial
 //! and a rejection restores it bit for bit.
+//!
+//! # Memory
+//!
+//! Per particle (O(particles)), in bytes for `D = 3` (`D = 2`): the committed state and
+//! the trial each hold `x`, `v` (48; 32), `σ`, `F` (144; 64) and the density (8); the
+//! fields a step does not change — mass, `V⁰`, GIMP domain, material, run-wide id
+//! ([`CarriedNd`], 72; 64) — are held once and shared, and so are the two tangent moduli
+//! (16) where every material is linear-elastic ([`ModuliNd`]; else each state holds its
+//! own). In all `2·200 + 72 + 16 = 488` bytes (`2·104 + 64 + 16 = 288` in 2D). Per node (O(nodes)), per state:
+//! mass, velocity, acceleration, activity (`8 + 16D + 1` bytes), plus the solver's
+//! `v_iⁿ⁺¹` and constraint flags. [`SolverNd::memory_bytes`] sums what is held.
 
+mod memory;
 mod own_bounds;
 mod setup;
 mod trial;
@@ -18,7 +32,9 @@ mod trial;
 use super::kernels;
 use super::particles::SetupNdError;
 use super::slab::SlabNd;
-use super::{GridNd, MaterialNd, ShapeNd, SplitNd, SummaryNd, Tensor, Vector, ViewNd, WeightsNd};
+use super::{
+    GridNd, MaterialNd, ShapeNd, SplitNd, SummaryNd, Tensor, Vector, ViewNd, ViewWeightsNd,
+};
 use crate::dimension::{Dim, Dimension, StateView};
 use crate::reduce::Reduce;
 use crate::stepper::{StepError, Stepper};
@@ -40,6 +56,15 @@ pub(super) struct CarriedNd<const D: usize> {
     pub id: Vec<u64>,
 }
 
+/// The tangent moduli `(λ_t, μ_t)` of a state's particles ([`ViewNd`]). Where every
+/// material's tangent is constant (linear elasticity) a step does not change them: the
+/// committed state and the trial then share one copy.
+#[derive(Clone, Debug, Default)]
+pub(super) struct ModuliNd {
+    pub lambda: Vec<f64>,
+    pub mu: Vec<f64>,
+}
+
 /// One state of the solver.
 #[derive(Clone, Debug, Default)]
 pub(super) struct StateNd<const D: usize> {
@@ -50,9 +75,8 @@ pub(super) struct StateNd<const D: usize> {
     pub sigma: Vec<Tensor<D>>,
     pub f: Vec<Tensor<D>>,
     pub density: Vec<f64>,
-    pub lame_lambda: Vec<f64>,
-    pub lame_mu: Vec<f64>,
-    weights: WeightsNd<D>,
+    /// Shared with the other state where the moduli are constant ([`ModuliNd`]).
+    pub moduli: Rc<ModuliNd>,
     node_mass: Vec<f64>,
     node_v: Vec<Vector<D>>,
     node_a: Vec<Vector<D>>,
@@ -114,6 +138,8 @@ pub struct SolverNd<const D: usize> {
     n_total: usize,
     /// Whether the trials carry their [`SummaryNd`] ([`Stepper::provide_summary`]).
     summarize: bool,
+    /// Every material's tangent moduli are constant: the states share them.
+    constant_moduli: bool,
 }
 
 impl<const D: usize> SolverNd<D> {
@@ -129,14 +155,7 @@ impl<const D: usize> SolverNd<D> {
         let fault = if failed {
             Ok(())
         } else {
-            kernels::compute_weights(
-                &self.grid,
-                self.shape,
-                &s.x,
-                &s.carried.domain,
-                &mut s.weights,
-                true,
-            )
+            kernels::check_stencils(&self.grid, self.shape, &s.x, &s.carried.domain)
         };
         if failed || fault.is_err() {
             self.take_part_after_failure();
@@ -146,7 +165,7 @@ impl<const D: usize> SolverNd<D> {
             self.split.complete_nodal(m, v, a)
         };
         kernels::particle_to_grid(
-            &s.weights,
+            &ViewWeightsNd::formed(&self.grid, self.shape, &s.x, &s.carried.domain),
             &s.carried.mass,
             &s.carried.volume0,
             &s.v,
@@ -367,10 +386,10 @@ impl<const D: usize> SolverNd<D> {
             f: &s.f,
             volume0: &s.carried.volume0,
             mass: &s.carried.mass,
-            lame_lambda: &s.lame_lambda,
-            lame_mu: &s.lame_mu,
+            lame_lambda: &s.moduli.lambda,
+            lame_mu: &s.moduli.mu,
             density: &s.density,
-            weights: &s.weights,
+            weights: ViewWeightsNd::formed(&self.grid, self.shape, &s.x, &s.carried.domain),
             node_mass: &s.node_mass,
             node_velocity: &s.node_v,
             node_acceleration: &s.node_a,

@@ -2,8 +2,9 @@
 //! element bound and the speed-of-sound step of a state, handed over with its totals so
 //! that the stability and sound-speed limits make no pass of their own.
 //!
-//! Both come from one pass over the particles' per-axis weight factors, moduli, density and
-//! velocity, with no stencil row formed: each particle's `λ_p` from its gradient metric
+//! Both come from one pass over the particles' positions (their per-axis weight factors
+//! formed again, as every pass of this solver forms them), moduli, density and velocity,
+//! with no stencil row formed: each particle's `λ_p` from its gradient metric
 //! ([`crate::nd::factor_metric`], an upper bound of the one the library would compute) and
 //! [`crate::limits_nd::element_bound::from_metric`], and `min_a h_a/(c_p + |v_{p,a}|)`
 //! exactly as [`crate::limits_nd::SoundSpeedNd::unit_step`] forms it. On a grid split over
@@ -12,11 +13,11 @@
 use super::{SolverNd, StateNd};
 use crate::limits_nd::element_bound::from_metric;
 use crate::nd::factor_metric::gradient_metric;
+use crate::nd::kernels::axis_factors;
 
 impl<const D: usize> SolverNd<D> {
-    /// `(element bound, speed-of-sound unit step)` of state `s` (module docs), or
-    /// `(None, None)` without factors (every process of a split run takes part in the
-    /// reductions either way). A particle whose metric is
+    /// `(element bound, speed-of-sound unit step)` of state `s` (module docs), the whole
+    /// run's on a split grid (every process takes part in the reductions). A particle whose metric is
     /// unbounded makes the bound `+∞`; a non-finite wave speed makes the unit step NaN
     /// (the sound-speed limit then makes its own pass and names the particle).
     /// With `failed` (this process's trial failed) it computes nothing and only takes part
@@ -45,21 +46,27 @@ impl<const D: usize> SolverNd<D> {
 
     /// [`Self::own_bounds`] of this process's particles.
     fn own_bounds_local(&self, s: &StateNd<D>) -> (Option<f64>, Option<f64>) {
-        let Some((factors, n)) = s.weights.factors() else {
-            return (None, None);
-        };
+        let n = self.shape.nodes_per_axis();
+        let strides: [usize; D] = std::array::from_fn(|a| self.grid.stride(a));
         let h: [f64; D] = std::array::from_fn(|a| self.grid.h[a]);
         let mut bound = 0.0f64;
         let mut unit = f64::INFINITY;
         let mut speeds_finite = true;
-        for (p, f) in factors.iter().enumerate().take(s.x.len()) {
-            let (l, m) = (s.lame_lambda[p], s.lame_mu[p]);
+        for p in 0..s.x.len() {
+            let (l, m) = (s.moduli.lambda[p], s.moduli.mu[p]);
             let c = ((l + 2.0 * m) / s.density[p]).sqrt();
             speeds_finite &= c.is_finite();
             for (a, &ha) in h.iter().enumerate() {
                 unit = unit.min(ha / (c + s.v[p][a].abs()));
             }
-            let lambda_p = match gradient_metric(f, n, &h) {
+            let factors = axis_factors(
+                &self.grid,
+                self.shape,
+                &strides,
+                &s.x[p],
+                &s.carried.domain[p],
+            );
+            let lambda_p = match factors.and_then(|f| gradient_metric(&f, n, &h)) {
                 Some((row_sum, trace)) => {
                     let per_mass =
                         crate::nd::det(&s.f[p]) * s.carried.volume0[p] / s.carried.mass[p];

@@ -1,10 +1,10 @@
 //! Setting a [`SolverNd`] up: undivided, split by particle, or on a slab of a decomposed
 //! grid.
 
-use super::{CarriedNd, SolverNd, Split, StateNd, INACTIVE_MASS_RATIO};
+use super::{CarriedNd, ModuliNd, SolverNd, Split, StateNd, INACTIVE_MASS_RATIO};
 use crate::nd::particles::{ParticlesNd, SetupNdError};
 use crate::nd::slab::SlabNd;
-use crate::nd::{GridNd, ShapeNd, Tensor, Vector, WeightsNd};
+use crate::nd::{GridNd, MaterialNd, ShapeNd, Tensor, Vector};
 use crate::reduce::Reduce;
 use std::rc::Rc;
 
@@ -122,6 +122,10 @@ impl<const D: usize> SolverNd<D> {
                 .map(|i| grid.is_constrained(i))
                 .collect(),
         };
+        let constant_moduli = particles
+            .material
+            .iter()
+            .all(|m| matches!(m, MaterialNd::LinearElastic { .. }));
         let (lame_lambda, lame_mu): (Vec<f64>, Vec<f64>) =
             particles.material.iter().map(|m| m.tangent(1.0)).unzip();
         let committed = StateNd {
@@ -134,9 +138,10 @@ impl<const D: usize> SolverNd<D> {
             v: particles.v,
             sigma: vec![Tensor::<D>::zeros(); n],
             f: vec![Tensor::<D>::identity(); n],
-            lame_lambda,
-            lame_mu,
-            weights: WeightsNd::new(grid.n_nodes(), shape.width(D)),
+            moduli: Rc::new(ModuliNd {
+                lambda: lame_lambda,
+                mu: lame_mu,
+            }),
             carried: Rc::new(CarriedNd {
                 mass: particles.mass,
                 volume0: particles.volume,
@@ -159,6 +164,7 @@ impl<const D: usize> SolverNd<D> {
             split,
             n_total,
             summarize: false,
+            constant_moduli,
         };
         let mut c = std::mem::take(&mut solver.committed);
         solver

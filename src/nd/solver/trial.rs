@@ -2,7 +2,7 @@
 
 use super::SolverNd;
 use crate::nd::kernels::{self, Committed, ParticleFault, Written};
-use crate::nd::{SummaryNd, Tensor, Vector};
+use crate::nd::{SummaryNd, Tensor, Vector, ViewWeightsNd};
 use crate::stepper::StepError;
 use std::rc::Rc;
 
@@ -26,9 +26,17 @@ impl<const D: usize> SolverNd<D> {
         trial.sigma.resize(n, Tensor::<D>::zeros());
         trial.f.resize(n, Tensor::<D>::zeros());
         trial.density.resize(n, 0.0);
-        trial.lame_lambda.resize(n, 0.0);
-        trial.lame_mu.resize(n, 0.0);
         trial.carried = Rc::clone(&c.carried);
+        // Constant moduli: the committed state's, shared; else the trial's own buffers.
+        let moduli = if self.constant_moduli {
+            trial.moduli = Rc::clone(&c.moduli);
+            None
+        } else {
+            let m = Rc::make_mut(&mut trial.moduli);
+            m.lambda.resize(n, 0.0);
+            m.mu.resize(n, 0.0);
+            Some((&mut m.lambda[..], &mut m.mu[..]))
+        };
         let fault = kernels::grid_to_particle(
             self.whole(),
             &c.carried.material,
@@ -41,7 +49,7 @@ impl<const D: usize> SolverNd<D> {
                 v: &c.v,
                 sigma: &c.sigma,
                 f: &c.f,
-                weights: &c.weights,
+                weights: ViewWeightsNd::formed(&self.grid, self.shape, &c.x, &c.carried.domain),
                 node_a: &c.node_a,
             },
             Written {
@@ -50,8 +58,7 @@ impl<const D: usize> SolverNd<D> {
                 sigma: &mut trial.sigma,
                 f: &mut trial.f,
                 density: &mut trial.density,
-                lame_lambda: &mut trial.lame_lambda,
-                lame_mu: &mut trial.lame_mu,
+                moduli,
             },
             self.summarize,
         );
