@@ -234,9 +234,14 @@ fn run(c: &ControllerConfig, opt_in: bool, t_end: f64) -> Vec<String> {
 /// diagonal settings act between the motion guard's refreshes, the bound's age in bound
 /// mode, the cost model where the stepper supplies the bound. The moduli and diagonal
 /// thresholds, the raw bound's slack, age and cost model act with the calibrated bound
-/// off (`bound_drift` −1; with it on, `bound_drift` takes their place).
+/// off (`bound_drift` −1; with it on, `bound_drift` takes their place), and so does the
+/// motion guard's distance: under the calibrated bound it only says when the generic path
+/// looks at the bound again, which changes the steps only where the bound has risen.
 const STABILITY_CHANGES: [(&str, &str); 14] = [
-    (r#"{"refresh_cells": 0.05}"#, "{}"),
+    (
+        r#"{"refresh_cells": 0.05, "bound_drift": -1.0}"#,
+        r#"{"bound_drift": -1.0}"#,
+    ),
     (r#"{"refresh_mass": 1e-6}"#, "{}"),
     (
         r#"{"refresh_modulus": 1e-4, "bound_drift": -1.0}"#,
