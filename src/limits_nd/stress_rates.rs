@@ -154,7 +154,7 @@ mod tests {
         assert_eq!(r.heap_bytes(), 2 * 6 * 8);
         // The first rate that is not symmetric: the full form, the earlier rates kept.
         let mut n = s;
-        n[(0, 1)] += 1e-17;
+        n[(0, 1)] += 1e-3;
         r.set(0, n);
         assert!(matches!(r, StressRates::Full(_)));
         assert_eq!((r.get(0), r.get(1)), (n, s));

@@ -137,10 +137,15 @@ pub(super) fn particle_to_grid<const D: usize>(
         let mp = mass[p];
         let mv = v[p] * mp;
         let vs = sigma[p] * (-(super::det(&f[p]) * volume0[p]));
-        weights.for_each_in_row(p, |i, w, g| {
-            node_mass[i] += w * mp;
-            node_v[i] += mv * w;
-            node_a[i] += vs * g;
+        // The row formed on the stack first (as in the gather): a visitor closure is not
+        // inlined into the unrolled stencil loop once the row is formed in the pass.
+        weights.with_row(p, |nodes, s, grad| {
+            for ((&i, &w), g) in nodes.iter().zip(s).zip(grad) {
+                let i = i as usize;
+                node_mass[i] += w * mp;
+                node_v[i] += mv * w;
+                node_a[i] += vs * g;
+            }
         });
     }
     // The other processes' sums, in a split run.
