@@ -20,6 +20,8 @@
 //! [`crate::limits_nd::element_bound`]).
 
 use super::factors::AxisFactors;
+use super::Vector;
+use crate::limits_nd::element_bound::from_metric;
 
 /// `|s'|·h` below which a derivative at a factor of zero weight counts as round-off.
 const ROUND_OFF: f64 = 1e-9;
@@ -76,6 +78,83 @@ pub fn gradient_metric<const D: usize>(
         row_max = row_max.max(row);
     }
     Some((row_max, trace))
+}
+
+/// The element bound `max_p λ_p` and the speed-of-sound unit step
+/// `min_p min_a h_a/(c_p + |v_{p,a}|)` accumulated particle by particle inside a pass that
+/// forms the factors anyway (the reference solver's particle → grid pass), so that handing
+/// them over ([`crate::nd::SummaryNd`]) costs no pass of its own.
+#[derive(Clone, Debug)]
+pub(crate) struct ParticleBounds<'a, const D: usize> {
+    /// Tangent moduli `λ_t`, `μ_t` and density of the state's particles.
+    pub lame_lambda: &'a [f64],
+    pub lame_mu: &'a [f64],
+    pub density: &'a [f64],
+    /// Cell sizes.
+    pub h: [f64; D],
+    /// `max_p λ_p` so far (`+∞` once a metric is unbounded, NaN once a value is).
+    pub bound: f64,
+    /// The unit step so far.
+    pub unit: f64,
+    /// Every wave speed so far is finite.
+    pub speeds_finite: bool,
+}
+
+impl<'a, const D: usize> ParticleBounds<'a, D> {
+    /// An empty accumulator over these particle fields.
+    pub fn new(
+        lame_lambda: &'a [f64],
+        lame_mu: &'a [f64],
+        density: &'a [f64],
+        h: [f64; D],
+    ) -> Self {
+        Self {
+            lame_lambda,
+            lame_mu,
+            density,
+            h,
+            bound: 0.0,
+            unit: f64::INFINITY,
+            speeds_finite: true,
+        }
+    }
+
+    /// Adds particle `p` with velocity `v`, `V_p/m_p` = `per_mass` and its factors (`None`:
+    /// its stencil could not be formed, the bound `+∞`). The wave speed and the unit step
+    /// are formed exactly as [`crate::limits_nd::SoundSpeedNd::unit_step`] forms them.
+    #[inline(always)]
+    pub fn add(
+        &mut self,
+        p: usize,
+        v: &Vector<D>,
+        per_mass: f64,
+        factors: Option<(&[AxisFactors; D], usize)>,
+    ) {
+        let (l, m) = (self.lame_lambda[p], self.lame_mu[p]);
+        let c = ((l + 2.0 * m) / self.density[p]).sqrt();
+        self.speeds_finite &= c.is_finite();
+        for a in 0..D {
+            self.unit = self.unit.min(self.h[a] / (c + v[a].abs()));
+        }
+        let lambda_p = match factors.and_then(|(f, n)| gradient_metric(f, n, &self.h)) {
+            Some((row_sum, trace)) => from_metric::<D>(row_sum, trace, per_mass, l, m),
+            None => f64::INFINITY,
+        };
+        // A NaN is kept once seen, so that the limit refuses it.
+        if lambda_p.is_nan() || (!self.bound.is_nan() && lambda_p > self.bound) {
+            self.bound = lambda_p;
+        }
+    }
+
+    /// `(bound, unit step)`, the unit step NaN where a wave speed was not finite.
+    pub fn result(&self) -> (f64, f64) {
+        let unit = if self.speeds_finite {
+            self.unit
+        } else {
+            f64::NAN
+        };
+        (self.bound, unit)
+    }
 }
 
 #[cfg(test)]

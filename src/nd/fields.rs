@@ -88,6 +88,7 @@ impl<const D: usize> NodalFieldsNd<D> {
             &mut self.acceleration,
             &mut self.active,
             &|_, _, _| {},
+            None,
         );
     }
 }

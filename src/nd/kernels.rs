@@ -2,6 +2,7 @@
 //! particle → grid, grid update and grid → particle. Written once for any `D` over the
 //! tensor-product stencil (`nodes_per_axis^D` entries per particle).
 
+use super::factor_metric::ParticleBounds;
 use super::factors::{form_row, AxisFactors};
 use super::{GridNd, MaterialNd, ShapeNd, SummaryNd, Tensor, Vector, ViewWeightsNd, WeightsNd};
 use crate::grid::Boundary;
@@ -125,6 +126,7 @@ pub(super) fn particle_to_grid<const D: usize>(
     node_a: &mut Vec<Vector<D>>,
     active: &mut Vec<bool>,
     complete: &NodalCompletion<'_, D>,
+    mut bounds: Option<&mut ParticleBounds<'_, D>>,
 ) {
     let nn = weights.n_nodes();
     node_mass.clear();
@@ -136,10 +138,14 @@ pub(super) fn particle_to_grid<const D: usize>(
     for p in 0..v.len() {
         let mp = mass[p];
         let mv = v[p] * mp;
-        let vs = sigma[p] * (-(super::det(&f[p]) * volume0[p]));
+        let vol = super::det(&f[p]) * volume0[p];
+        let vs = sigma[p] * (-vol);
         // The row formed on the stack first (as in the gather): a visitor closure is not
         // inlined into the unrolled stencil loop once the row is formed in the pass.
-        weights.with_row(p, |nodes, s, grad| {
+        weights.with_row_and_factors(p, |factors, nodes, s, grad| {
+            if let Some(b) = bounds.as_deref_mut() {
+                b.add(p, &v[p], vol / mp, factors);
+            }
             for ((&i, &w), g) in nodes.iter().zip(s).zip(grad) {
                 let i = i as usize;
                 node_mass[i] += w * mp;

@@ -117,8 +117,20 @@ impl<'a, const D: usize> ViewWeightsNd<'a, D> {
     /// lives on the stack for the call.
     #[inline]
     pub fn with_row<T>(&self, p: usize, f: impl FnOnce(&[u32], &[f64], &[Vector<D>]) -> T) -> T {
+        self.with_row_and_factors(p, |_, nodes, s, grad| f(nodes, s, grad))
+    }
+
+    /// [`Self::with_row`], also handing `f` the per-axis factors the row was formed from
+    /// (`None` for stored weights or a row that could not be formed), for a pass that reads
+    /// more than the row from them (the reference solver's element bound).
+    #[inline]
+    pub(crate) fn with_row_and_factors<T>(
+        &self,
+        p: usize,
+        f: impl FnOnce(Option<(&[AxisFactors; D], usize)>, &[u32], &[f64], &[Vector<D>]) -> T,
+    ) -> T {
         let formed = match self.0 {
-            Source::Stored(w) => return w.with_row(p, f),
+            Source::Stored(w) => return w.with_row(p, |nodes, s, grad| f(None, nodes, s, grad)),
             Source::Formed(formed) => formed,
         };
         let mut nodes = [0u32; MAX_FORMED_ROW];
@@ -128,9 +140,9 @@ impl<'a, const D: usize> ViewWeightsNd<'a, D> {
             Some((factors, n)) => {
                 form_row(&factors, n, &mut nodes, &mut s, &mut grad);
                 let w = formed.shape.width(D).min(MAX_FORMED_ROW);
-                f(&nodes[..w], &s[..w], &grad[..w])
+                f(Some((&factors, n)), &nodes[..w], &s[..w], &grad[..w])
             }
-            None => f(&[], &[], &[]),
+            None => f(None, &[], &[], &[]),
         }
     }
 

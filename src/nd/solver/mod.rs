@@ -150,20 +150,26 @@ impl<const D: usize> SolverNd<D> {
 
     /// Weights and nodal fields of a state from its particle fields. With `failed` (this
     /// process's trial failed before) it only takes part in the exchanges of a split run,
-    /// with zeros, so that the other processes are not left waiting.
-    fn derive_state(&self, s: &mut StateNd<D>, failed: bool) -> Result<(), usize> {
-        let fault = if failed {
-            Ok(())
-        } else {
-            kernels::check_stencils(&self.grid, self.shape, &s.x, &s.carried.domain)
-        };
-        if failed || fault.is_err() {
+    /// with zeros, so that the other processes are not left waiting. While summaries are
+    /// on it also returns this process's element bound and speed-of-sound unit step,
+    /// accumulated in the same pass ([`own_bounds`]).
+    fn derive_state(&self, s: &mut StateNd<D>, failed: bool) -> Result<Option<(f64, f64)>, usize> {
+        if failed {
             self.take_part_after_failure();
-            return fault;
+            return Ok(None);
+        }
+        if let Err(p) = kernels::check_stencils(&self.grid, self.shape, &s.x, &s.carried.domain) {
+            self.take_part_after_failure();
+            return Err(p);
         }
         let complete = |m: &mut Vec<f64>, v: &mut Vec<Vector<D>>, a: &mut Vec<Vector<D>>| {
             self.split.complete_nodal(m, v, a)
         };
+        let mut node_mass = std::mem::take(&mut s.node_mass);
+        let mut node_v = std::mem::take(&mut s.node_v);
+        let mut node_a = std::mem::take(&mut s.node_a);
+        let mut active = std::mem::take(&mut s.active);
+        let mut bounds = self.summarize.then(|| self.particle_bounds(s));
         kernels::particle_to_grid(
             &ViewWeightsNd::formed(&self.grid, self.shape, &s.x, &s.carried.domain),
             &s.carried.mass,
@@ -174,13 +180,16 @@ impl<const D: usize> SolverNd<D> {
             &self.gravity,
             &self.constrained,
             self.threshold,
-            &mut s.node_mass,
-            &mut s.node_v,
-            &mut s.node_a,
-            &mut s.active,
+            &mut node_mass,
+            &mut node_v,
+            &mut node_a,
+            &mut active,
             &complete,
+            bounds.as_mut(),
         );
-        Ok(())
+        let local = bounds.map(|b| b.result());
+        (s.node_mass, s.node_v, s.node_a, s.active) = (node_mass, node_v, node_a, active);
+        Ok(local)
     }
 
     /// The totals of a state's particles ([`SummaryNd`]), by a pass of their own (for the
@@ -203,7 +212,7 @@ impl<const D: usize> SolverNd<D> {
             element_bound: None,
             sound_unit_step: None,
         };
-        let (element_bound, sound_unit_step) = self.own_bounds(s, false);
+        let (element_bound, sound_unit_step) = self.whole_run_bounds(Some(self.own_bounds_pass(s)));
         SummaryNd {
             element_bound,
             sound_unit_step,
@@ -360,7 +369,7 @@ impl<const D: usize> SolverNd<D> {
         c.summary = self.summarize.then(|| self.summary_of(&c));
         self.committed = c;
         self.has_trial = false;
-        r.map_err(|index| SetupNdError::OutsideBox {
+        r.map(|_| ()).map_err(|index| SetupNdError::OutsideBox {
             index,
             axis: 0,
             x: self.committed.x[index][0],

@@ -88,8 +88,11 @@ impl<const D: usize> SolverNd<D> {
                 element_bound: None,
                 sound_unit_step: None,
             });
-            let failed = result.is_err() || derived.is_err();
-            let (element_bound, sound_unit_step) = self.own_bounds(&trial, failed);
+            let local = match (&result, &derived) {
+                (Ok(_), Ok(local)) => *local,
+                _ => None,
+            };
+            let (element_bound, sound_unit_step) = self.whole_run_bounds(local);
             trial.summary = Some(SummaryNd {
                 element_bound,
                 sound_unit_step,
@@ -99,7 +102,7 @@ impl<const D: usize> SolverNd<D> {
             trial.summary = None;
         }
         let result = result.and_then(|_| {
-            derived.map_err(|index| {
+            derived.map(|_| ()).map_err(|index| {
                 let axis = self.whole().axis_outside(&trial.x[index]).unwrap_or(0);
                 StepError::OutOfDomain {
                     index,
