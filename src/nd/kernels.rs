@@ -78,7 +78,12 @@ pub(super) fn axis_factors<const D: usize>(
             // One wrap for the first node; the next ones wrap by a comparison (a loop: an
             // axis of fewer cells than the stencil's nodes wraps more than once).
             let n = grid.cells[a];
-            let first = st.first.rem_euclid(n as i64) as usize;
+            // Inside the box already for all but the particles near its upper end: no
+            // integer division there.
+            let first = match usize::try_from(st.first) {
+                Ok(i) if i < n => i,
+                _ => st.first.rem_euclid(n as i64) as usize,
+            };
             for k in 0..n_axis {
                 let mut i = first + k;
                 while i >= n {

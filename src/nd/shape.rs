@@ -81,7 +81,7 @@ impl ShapeNd {
             ShapeNd::BSpline2 => {
                 let inv_h = 1.0 / h;
                 let q = x * inv_h;
-                let base = (q - 0.5).floor();
+                let base = crate::shape::floor(q - 0.5);
                 let f = q - base; // in [0.5, 1.5)
                 AxisStencil {
                     first: base as i64,
