@@ -98,9 +98,10 @@ struct Estimate {
 /// # Memory
 ///
 /// One history of rates per particle (O(particles)): `a_p` and `σ̇_p`, `(D + D²)·8` bytes
-/// (96 in 3D, 48 in 2D), or `(D + D(D+1)/2)·8` (72, 40) while the stress rates are
-/// symmetric, as the reference solver's are ([`super::stress_rates`]), plus the run-wide ids on a grid-decomposed run (8). A judged
-/// trial's rates are not kept: when it is accepted they are formed again from the two
+/// (96 in 3D, 48 in 2D), or `(D + D(D+1)/2)·8` (72, 40) while every stress rate is exactly
+/// symmetric, as the reference solver's are (then only the upper triangles are kept, and
+/// unpacked to the very tensors stored), plus the run-wide ids on a grid-decomposed run
+/// (8). A judged trial's rates are not kept: when it is accepted they are formed again from the two
 /// states, `(u^{n+1} − u^n)/dt` with the same operations, and written over the history
 /// in place. Only where particles changed process in a trial (a grid-decomposed run) are
 /// its rates formed into a second history while it is judged, and the run-wide id table
