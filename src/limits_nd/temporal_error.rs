@@ -64,12 +64,15 @@
 //! **Not carried over:** the balancing of eq 44's spatial error (`balance`), whose
 //! estimators are 1D; a configured `balance` is reported as an error, not ignored.
 
-use super::temporal_sweep::{rates_into, stamp, sweep, History, Pairing, Weights, LEFT_OUT, NONE};
-use crate::controller::deferral::{self, Deferral, DeferredTrial};
+mod accept;
+
+use super::temporal_sweep::{stamp, sweep, History, Pairing, Weights, LEFT_OUT, NONE};
+use crate::controller::deferral::{self, DeferredTrial};
 use crate::controller::{metric, TemporalErrorConfig, TEMPORAL_ERROR};
 use crate::dimension::{Dim, Dimension};
 use crate::limit::{Judgement, LimitError, Metrics, Proposal, RejectCause, StepLimit, Verdict};
 use crate::nd::{Vector, ViewNd};
+use accept::Judged;
 
 /// Relative growth of a field scale over the previous step's below which the weights keep
 /// the previous scale (one pass over the particles instead of two).
@@ -88,17 +91,6 @@ struct Estimate {
     sigma_scale: f64,
 }
 
-/// The last judged trial: its start time and step, its estimate, and — only where
-/// particles changed process in it — its rates (else they are written into the history
-/// in place when it is accepted).
-#[derive(Clone, Debug)]
-struct Judged<const D: usize> {
-    t: f64,
-    dt: f64,
-    estimate: Estimate,
-    rates: Option<History<D>>,
-}
-
 /// The temporal-error limit in `d` dimensions: proposes nothing itself (the controller's
 /// filter does, from the `dsm` it reports) and judges each trial by `dsm ≤ 1` (module
 /// docs). The per-particle arrays are allocated once per run and reused.
@@ -106,9 +98,10 @@ struct Judged<const D: usize> {
 /// # Memory
 ///
 /// One history of rates per particle (O(particles)): `a_p` and `σ̇_p`, `(D + D²)·8` bytes
-/// (96 in 3D, 48 in 2D), or `(D + D(D+1)/2)·8` (72, 40) while the stress rates are
-/// symmetric, as the reference solver's are ([`super::stress_rates`]), plus the run-wide ids on a grid-decomposed run (8). A judged
-/// trial's rates are not kept: when it is accepted they are formed again from the two
+/// (96 in 3D, 48 in 2D), or `(D + D(D+1)/2)·8` (72, 40) while every stress rate is exactly
+/// symmetric, as the reference solver's are (then only the upper triangles are kept, and
+/// unpacked to the very tensors stored), plus the run-wide ids on a grid-decomposed run
+/// (8). A judged trial's rates are not kept: when it is accepted they are formed again from the two
 /// states, `(u^{n+1} − u^n)/dt` with the same operations, and written over the history
 /// in place. Only where particles changed process in a trial (a grid-decomposed run) are
 /// its rates formed into a second history while it is judged, and the run-wide id table
@@ -339,71 +332,6 @@ impl<const D: usize> TemporalErrorNd<D> {
     /// A history whose arrays the next estimate overwrites.
     fn take_buffer(&mut self) -> History<D> {
         self.spare.take().unwrap_or_default()
-    }
-
-    /// Whether particles changed process in the trial: a grid-decomposed run whose trial
-    /// holds other run-wide ids than the committed state.
-    fn moved(before: &ViewNd<'_, D>, after: &ViewNd<'_, D>) -> bool {
-        matches!((before.split, after.split), (Some(b), Some(a)) if a.particle_id != b.particle_id)
-    }
-
-    /// The estimate of a trial; where particles changed process in it, with its rates
-    /// formed into a history of their own.
-    fn judge_trial(
-        &mut self,
-        before: &ViewNd<'_, D>,
-        after: &ViewNd<'_, D>,
-        dt: f64,
-    ) -> Result<Judged<D>, LimitError> {
-        let mut rates = Self::moved(before, after).then(|| self.take_buffer());
-        match self.estimate(before, after, dt, rates.as_mut()) {
-            Ok(estimate) => Ok(Judged {
-                t: before.t,
-                dt,
-                estimate,
-                rates,
-            }),
-            Err(err) => {
-                if rates.is_some() {
-                    self.spare = rates;
-                }
-                Err(err)
-            }
-        }
-    }
-
-    /// The accepted trial's rates written over the history in place, with the schedule
-    /// that follows its check (what [`deferral::install`] gives a new history).
-    fn install_in_place(
-        &mut self,
-        before: &ViewNd<'_, D>,
-        after: &ViewNd<'_, D>,
-        dt: f64,
-        e: &Estimate,
-    ) {
-        let previous = self.history.as_ref().map(|h| h.defer);
-        let mut h = self
-            .history
-            .take()
-            .or_else(|| self.spare.take())
-            .unwrap_or_default();
-        rates_into(before, after, dt, &mut h);
-        stamp(&mut h, dt, e.v_scale, e.sigma_scale);
-        h.defer = Deferral::after_check(previous, e.dsm, &self.config);
-        self.history = Some(h);
-    }
-
-    /// Bytes of the per-particle arrays held (their capacities): the history, a judged
-    /// trial's rates and a spare history (grid-decomposed runs where particles moved), the
-    /// id table.
-    pub fn memory_bytes(&self) -> usize {
-        let judged = self.judged.as_ref().and_then(|j| j.rates.as_ref());
-        [self.history.as_ref(), judged, self.spare.as_ref()]
-            .into_iter()
-            .flatten()
-            .map(History::heap_bytes)
-            .sum::<usize>()
-            + self.slot_before.capacity() * std::mem::size_of::<u32>()
     }
 }
 
