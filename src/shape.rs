@@ -127,10 +127,18 @@ mod tests {
     /// `⌊−0⌋` is `+0` here, which adds to the node offsets exactly as `−0` does).
     #[test]
     fn floor_matches_the_standard_floor() {
-        let mut values = vec![0.0, -0.0, 1.0, -1.0, 0.5, -0.5, 1e-300, -1e-300, 4.0e15, -4.0e15];
+        let mut values = vec![
+            0.0, -0.0, 1.0, -1.0, 0.5, -0.5, 1e-300, -1e-300, 4.0e15, -4.0e15,
+        ];
         for k in -2000..2000 {
             let x = k as f64 * 0.013_7;
-            values.extend([x, x.next_up(), x.next_down(), k as f64, (k as f64).next_down()]);
+            values.extend([
+                x,
+                x.next_up(),
+                x.next_down(),
+                k as f64,
+                (k as f64).next_down(),
+            ]);
         }
         for x in values {
             assert_eq!(floor(x), x.floor(), "{x}");
