@@ -73,7 +73,8 @@ impl<const D: usize> NodalFieldsNd<D> {
                 .collect();
             self.constrained_on = Some(grid.clone());
         }
-        kernels::particle_to_grid(
+        // Stored weights: every row is there.
+        let _ = kernels::particle_to_grid(
             &weights.into(),
             particles.mass,
             particles.volume0,

@@ -39,25 +39,6 @@ pub(super) fn compute_weights<const D: usize>(
     Ok(())
 }
 
-/// The first particle whose stencil leaves the stored nodes (only past a fixed wall: on
-/// periodic axes every stencil wraps onto stored nodes), if any: the check that lets a
-/// state's views form their rows on demand ([`super::ViewWeightsNd`]).
-pub(super) fn check_stencils<const D: usize>(
-    grid: &GridNd<D>,
-    shape: ShapeNd,
-    x: &[Vector<D>],
-    domain: &[Vector<D>],
-) -> Result<(), usize> {
-    if grid.boundary.iter().all(|&b| b == Boundary::Periodic) {
-        return Ok(());
-    }
-    let strides: [usize; D] = std::array::from_fn(|a| grid.stride(a));
-    for (p, (x, l)) in x.iter().zip(domain).enumerate() {
-        axis_factors(grid, shape, &strides, x, l).ok_or(p)?;
-    }
-    Ok(())
-}
-
 /// The per-axis factors of a particle at `x` with GIMP domain `l`; `None` if its stencil
 /// leaves the stored nodes.
 #[inline]
@@ -115,6 +96,9 @@ pub(super) type NodalCompletion<'a, const D: usize> =
 /// `m_i = Σ S m_p`, `v_i = Σ S m_p v_p / m_i`,
 /// `a_i = (−Σ V_p σ_p ∇S_ip)/m_i + g` with `V_p = det(F_p) V⁰_p`; nodes that are
 /// constrained or have `m_i ≤ threshold` are inactive, with `v_i = a_i = 0`.
+/// Returns the first particle whose row could not be formed (its stencil leaves the
+/// stored nodes past a fixed wall; formed weights only), which then added nothing: the
+/// check costs no pass of its own.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn particle_to_grid<const D: usize>(
     weights: &ViewWeightsNd<'_, D>,
@@ -132,8 +116,10 @@ pub(super) fn particle_to_grid<const D: usize>(
     active: &mut Vec<bool>,
     complete: &NodalCompletion<'_, D>,
     mut bounds: Option<&mut ParticleBounds<'_, D>>,
-) {
+) -> Option<usize> {
     let nn = weights.n_nodes();
+    let formed = weights.is_formed();
+    let mut unformed = None;
     node_mass.clear();
     node_mass.resize(nn, 0.0);
     node_v.clear();
@@ -148,6 +134,9 @@ pub(super) fn particle_to_grid<const D: usize>(
         // The row formed on the stack first (as in the gather): a visitor closure is not
         // inlined into the unrolled stencil loop once the row is formed in the pass.
         weights.with_row_and_factors(p, |factors, nodes, s, grad| {
+            if formed && factors.is_none() && unformed.is_none() {
+                unformed = Some(p);
+            }
             if let Some(b) = bounds.as_deref_mut() {
                 b.add(p, &v[p], vol / mp, factors);
             }
@@ -174,6 +163,7 @@ pub(super) fn particle_to_grid<const D: usize>(
             node_a[i] = Vector::<D>::zeros();
         }
     }
+    unformed
 }
 
 /// Completes the nodal sums `Σ_p S m`, `Σ_p S m v`, `−Σ_p V σ ∇S` over the processes of a

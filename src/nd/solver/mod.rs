@@ -158,10 +158,6 @@ impl<const D: usize> SolverNd<D> {
             self.take_part_after_failure();
             return Ok(None);
         }
-        if let Err(p) = kernels::check_stencils(&self.grid, self.shape, &s.x, &s.carried.domain) {
-            self.take_part_after_failure();
-            return Err(p);
-        }
         let complete = |m: &mut Vec<f64>, v: &mut Vec<Vector<D>>, a: &mut Vec<Vector<D>>| {
             self.split.complete_nodal(m, v, a)
         };
@@ -170,7 +166,9 @@ impl<const D: usize> SolverNd<D> {
         let mut node_a = std::mem::take(&mut s.node_a);
         let mut active = std::mem::take(&mut s.active);
         let mut bounds = self.summarize.then(|| self.particle_bounds(s));
-        kernels::particle_to_grid(
+        // A stencil past a fixed wall is found by the pass itself (it adds nothing); the
+        // nodal sums are then completed as after any failure, the state is not used.
+        let unformed = kernels::particle_to_grid(
             &ViewWeightsNd::formed(&self.grid, self.shape, &s.x, &s.carried.domain),
             &s.carried.mass,
             &s.carried.volume0,
@@ -189,7 +187,10 @@ impl<const D: usize> SolverNd<D> {
         );
         let local = bounds.map(|b| b.result());
         (s.node_mass, s.node_v, s.node_a, s.active) = (node_mass, node_v, node_a, active);
-        Ok(local)
+        match unformed {
+            Some(p) => Err(p),
+            None => Ok(local),
+        }
     }
 
     /// The totals of a state's particles ([`SummaryNd`]), by a pass of their own (for the
