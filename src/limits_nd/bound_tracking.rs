@@ -117,7 +117,9 @@ pub struct BoundTracking {
     /// The calibrated bound's reference: `(B, λ)` of the last Lanczos refresh, when the
     /// calibrated policy is on and `B` was finite there.
     pub reference: Option<(f64, f64)>,
-    /// `B/B_ref` at the last re-anchoring of the motion guard (1 at a refresh).
+    /// `B/B_ref` at the last re-anchoring of the motion guard on the generic path (1 at a
+    /// refresh; 0 before any: the estimate takes `max(r, scale)`, `r ≥ 1`, so 0 and 1 act
+    /// alike).
     pub scale: f64,
     /// Proposals made from the calibrated bound.
     pub calibrated_proposals: u64,
