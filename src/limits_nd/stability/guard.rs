@@ -23,6 +23,46 @@ fn single<const D: usize>(x: &Vector<D>, origin: &[f64; D]) -> [f32; D] {
     std::array::from_fn(|a| (x[a] - origin[a]) as f32)
 }
 
+/// Whether a particle at `x` has moved more than `lim` cells on some axis from its
+/// single-precision reference `x_ref` (relative to the grid's origin; on a periodic axis of
+/// length `period` modulo the box); `None` where a displacement is NaN.
+///
+/// The reference is the position rounded to single precision: the threshold is lowered by
+/// a bound on that rounding (and on the arithmetic's), so the guard refreshes whenever the
+/// exact positions would have it refresh.
+fn moved_past<const D: usize>(
+    x: &Vector<D>,
+    x_ref: &[f32; D],
+    grid: &crate::nd::GridNd<D>,
+    period: &[f64; D],
+    lim: f64,
+) -> Option<bool> {
+    let mut moved = false;
+    for a in 0..D {
+        let (x, xr) = (x[a] - grid.origin[a], f64::from(x_ref[a]));
+        let dx = x - xr;
+        let periodic = if period[a].is_finite() {
+            period[a]
+        } else {
+            0.0
+        };
+        let allowed = lim * grid.h[a] - (xr.abs() + x.abs() + periodic) * REFERENCE_ROUNDING;
+        if dx.abs() <= allowed {
+            continue;
+        }
+        let d = if period[a].is_finite() {
+            dx - period[a] * (dx / period[a]).round()
+        } else {
+            dx
+        };
+        if d.is_nan() {
+            return None;
+        }
+        moved |= d.abs() > allowed;
+    }
+    Some(moved)
+}
+
 /// What the guard found against the analysed state.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) enum Staleness {
@@ -104,7 +144,6 @@ impl<const D: usize> StabilityNd<D> {
             self.mass_ref = m_min;
         }
         let grid = view.split.as_ref().map_or(view.grid, |s| s.whole);
-        let h = grid.h;
         let lim = self.config.refresh_cells;
         // On a periodic axis a particle that wrapped around shows a jump of one box length:
         // its displacement is taken modulo the box.
@@ -117,34 +156,9 @@ impl<const D: usize> StabilityNd<D> {
         for p in 0..view.n_particles() {
             let key = Self::key(view, p);
             if check_motion && !moved {
-                let x_ref = &self.x_ref[key];
-                for a in 0..D {
-                    let (x, xr) = (view.x[p][a] - grid.origin[a], f64::from(x_ref[a]));
-                    let dx = x - xr;
-                    // The reference is the position rounded to single precision: the
-                    // threshold is lowered by a bound on that rounding (and on the
-                    // arithmetic's), so the guard refreshes whenever the exact positions
-                    // would have it refresh.
-                    let scale = xr.abs()
-                        + x.abs()
-                        + if period[a].is_finite() {
-                            period[a]
-                        } else {
-                            0.0
-                        };
-                    let allowed = lim * h[a] - scale * REFERENCE_ROUNDING;
-                    if dx.abs() <= allowed {
-                        continue;
-                    }
-                    let d = if period[a].is_finite() {
-                        dx - period[a] * (dx / period[a]).round()
-                    } else {
-                        dx
-                    };
-                    if d.is_nan() {
-                        return Staleness::Stale;
-                    }
-                    moved |= d.abs() > allowed;
+                match moved_past(&view.x[p], &self.x_ref[key], grid, &period, lim) {
+                    Some(m) => moved = m,
+                    None => return Staleness::Stale,
                 }
             }
             let (bulk, shear) = Self::moduli(view, p);

@@ -79,28 +79,11 @@ impl<const D: usize> SolverNd<D> {
             }
         }
         let derived = self.derive_state(&mut trial, result.is_err());
-        if self.summarize {
-            let mine = result.as_ref().ok().copied().unwrap_or(SummaryNd {
-                finite: false,
-                kinetic: 0.0,
-                strain: 0.0,
-                first_moment: Vector::<D>::zeros(),
-                element_bound: None,
-                sound_unit_step: None,
-            });
-            let local = match (&result, &derived) {
-                (Ok(_), Ok(local)) => *local,
-                _ => None,
-            };
-            let (element_bound, sound_unit_step) = self.whole_run_bounds(local);
-            trial.summary = Some(SummaryNd {
-                element_bound,
-                sound_unit_step,
-                ..self.whole_run_summary(mine)
-            });
-        } else {
-            trial.summary = None;
-        }
+        let local = match (&result, &derived) {
+            (Ok(_), Ok(local)) => *local,
+            _ => None,
+        };
+        trial.summary = self.trial_summary(result.as_ref().ok().copied(), local);
         let result = result.and_then(|_| {
             derived.map(|_| ()).map_err(|index| {
                 let axis = self.whole().axis_outside(&trial.x[index]).unwrap_or(0);
@@ -119,6 +102,34 @@ impl<const D: usize> SolverNd<D> {
         self.trial = trial;
         self.has_trial = result.is_ok();
         result
+    }
+
+    /// The trial's [`SummaryNd`] while summaries are on: the pass's totals `mine` (`None`:
+    /// this process's trial failed) completed over the processes of a split run, with the
+    /// element bound and speed-of-sound step `local` accumulated in the particle → grid
+    /// pass. Every process takes part in the reductions, failed or not.
+    fn trial_summary(
+        &self,
+        mine: Option<SummaryNd<D>>,
+        local: Option<(f64, f64)>,
+    ) -> Option<SummaryNd<D>> {
+        if !self.summarize {
+            return None;
+        }
+        let mine = mine.unwrap_or(SummaryNd {
+            finite: false,
+            kinetic: 0.0,
+            strain: 0.0,
+            first_moment: Vector::<D>::zeros(),
+            element_bound: None,
+            sound_unit_step: None,
+        });
+        let (element_bound, sound_unit_step) = self.whole_run_bounds(local);
+        Some(SummaryNd {
+            element_bound,
+            sound_unit_step,
+            ..self.whole_run_summary(mine)
+        })
     }
 }
 
