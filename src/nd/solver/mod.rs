@@ -346,16 +346,9 @@ impl<const D: usize> SolverNd<D> {
             if len != n {
                 // In a split run the others are making the nodal exchanges: take part.
                 self.take_part_after_failure();
-                if self.summarize {
-                    self.whole_run_summary(SummaryNd {
-                        finite: false,
-                        kinetic: 0.0,
-                        strain: 0.0,
-                        first_moment: Vector::<D>::zeros(),
-                        element_bound: None,
-                        sound_unit_step: None,
-                    });
-                }
+                // The same reductions as the summary of a state that was set (none when
+                // summaries are off).
+                let _ = self.trial_summary(None, None);
                 return Err(SetupNdError::Length {
                     field,
                     len,

@@ -105,10 +105,11 @@ impl<const D: usize> SolverNd<D> {
     }
 
     /// The trial's [`SummaryNd`] while summaries are on: the pass's totals `mine` (`None`:
-    /// this process's trial failed) completed over the processes of a split run, with the
+    /// this process's part failed) completed over the processes of a split run, with the
     /// element bound and speed-of-sound step `local` accumulated in the particle → grid
-    /// pass. Every process takes part in the reductions, failed or not.
-    fn trial_summary(
+    /// pass. Every process takes part in the reductions, failed or not, in the order
+    /// [`SolverNd::summary_of`] makes them (bounds, then totals).
+    pub(super) fn trial_summary(
         &self,
         mine: Option<SummaryNd<D>>,
         local: Option<(f64, f64)>,
