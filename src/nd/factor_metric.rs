@@ -101,6 +101,12 @@ pub(crate) struct ParticleBounds<'a, const D: usize> {
 }
 
 impl<'a, const D: usize> ParticleBounds<'a, D> {
+    /// An empty accumulator for a pass that hands each particle's moduli and density to
+    /// [`Self::add_values`] itself (it reads no particle fields of its own).
+    pub fn detached(h: [f64; D]) -> Self {
+        Self::new(&[], &[], &[], h)
+    }
+
     /// An empty accumulator over these particle fields.
     pub fn new(
         lame_lambda: &'a [f64],
@@ -130,8 +136,22 @@ impl<'a, const D: usize> ParticleBounds<'a, D> {
         per_mass: f64,
         factors: Option<(&[AxisFactors; D], usize)>,
     ) {
-        let (l, m) = (self.lame_lambda[p], self.lame_mu[p]);
-        let c = ((l + 2.0 * m) / self.density[p]).sqrt();
+        let moduli = (self.lame_lambda[p], self.lame_mu[p]);
+        self.add_values(moduli, self.density[p], v, per_mass, factors);
+    }
+
+    /// [`Self::add`] for a particle of tangent moduli `(λ_t, μ_t)` = `moduli` and
+    /// density `density`, read by the caller (a pass that is writing them).
+    #[inline(always)]
+    pub fn add_values(
+        &mut self,
+        (l, m): (f64, f64),
+        density: f64,
+        v: &Vector<D>,
+        per_mass: f64,
+        factors: Option<(&[AxisFactors; D], usize)>,
+    ) {
+        let c = ((l + 2.0 * m) / density).sqrt();
         self.speeds_finite &= c.is_finite();
         for a in 0..D {
             self.unit = self.unit.min(self.h[a] / (c + v[a].abs()));

@@ -28,6 +28,22 @@ pub struct AxisFactors {
     pub d: [f64; 3],
 }
 
+/// What a walk over a formed row does at each entry `m` (node `node`, weight `S`,
+/// gradient `∇S`). A pass whose work per entry is more than a line implements it on a
+/// struct with an `#[inline(always)]` method: a closure called from the unrolled stencil
+/// loop is not inlined once its body is large, and then costs a call per node.
+pub trait RowVisitor<const D: usize> {
+    /// Visits entry `m` of the row.
+    fn visit(&mut self, m: usize, node: usize, s: f64, grad: Vector<D>);
+}
+
+impl<const D: usize, F: FnMut(usize, usize, f64, Vector<D>)> RowVisitor<D> for F {
+    #[inline(always)]
+    fn visit(&mut self, m: usize, node: usize, s: f64, grad: Vector<D>) {
+        self(m, node, s, grad)
+    }
+}
+
 /// Writes the row of `n^D` entries formed from `f` (module docs) into the first `n^D`
 /// slots of `nodes`, `s` and `grad` (`n` = 2 or 3; any other `n` writes nothing).
 #[inline(always)]
@@ -48,45 +64,48 @@ pub fn form_row<const D: usize>(
 /// Calls `visit(m, node, S, ∇S)` for the `n^D` entries `m` of the row formed from `f`, in
 /// row order (`n` = 2 or 3; any other `n` visits nothing).
 #[inline(always)]
-pub fn visit_row<const D: usize>(
+pub fn visit_row<const D: usize>(f: &[AxisFactors; D], n: usize, mut visit: impl RowVisitor<D>) {
+    visit_row_with(f, n, &mut visit);
+}
+
+/// [`visit_row`] with a visitor the caller keeps (its totals read afterwards).
+#[inline(always)]
+pub fn visit_row_with<const D: usize, V: RowVisitor<D>>(
     f: &[AxisFactors; D],
     n: usize,
-    visit: impl FnMut(usize, usize, f64, Vector<D>),
+    visit: &mut V,
 ) {
     // A constant node count per axis lets the compiler unroll the odometer and share the
     // partial products between nodes (the values are the same: only the loop is constant).
     match n {
-        2 => visit_row_n::<D, 2>(f, visit),
-        3 => visit_row_n::<D, 3>(f, visit),
+        2 => visit_row_n::<D, 2, V>(f, visit),
+        3 => visit_row_n::<D, 3, V>(f, visit),
         _ => {}
     }
 }
 
 #[inline(always)]
-fn visit_row_n<const D: usize, const N: usize>(
+fn visit_row_n<const D: usize, const N: usize, V: RowVisitor<D>>(
     f: &[AxisFactors; D],
-    visit: impl FnMut(usize, usize, f64, Vector<D>),
+    visit: &mut V,
 ) {
     match D {
-        2 => visit_2d::<D, N>(f, visit),
-        3 => visit_3d::<D, N>(f, visit),
-        _ => visit_any::<D, N>(f, visit),
+        2 => visit_2d::<D, N, V>(f, visit),
+        3 => visit_3d::<D, N, V>(f, visit),
+        _ => visit_any::<D, N, V>(f, visit),
     }
 }
 
 /// [`visit_row`] in 2D: `S = s_0 s_1`, `∇S = (s'_0 s_1, s'_1 s_0)`.
 #[inline(always)]
 #[allow(clippy::needless_range_loop)] // k0, k1 index both axes' factors
-fn visit_2d<const D: usize, const N: usize>(
-    f: &[AxisFactors; D],
-    mut visit: impl FnMut(usize, usize, f64, Vector<D>),
-) {
+fn visit_2d<const D: usize, const N: usize, V: RowVisitor<D>>(f: &[AxisFactors; D], visit: &mut V) {
     let (f0, f1) = (&f[0], &f[1]);
     for k1 in 0..N {
         for k0 in 0..N {
             let node = f0.offset[k0] as usize + f1.offset[k1] as usize;
             let g = [f0.d[k0] * f1.s[k1], f1.d[k1] * f0.s[k0]];
-            visit(
+            visit.visit(
                 k0 + N * k1,
                 node,
                 f0.s[k0] * f1.s[k1],
@@ -100,10 +119,7 @@ fn visit_2d<const D: usize, const N: usize>(
 /// multiplied by the third factor in the order of the module docs.
 #[inline(always)]
 #[allow(clippy::needless_range_loop)] // k0, k1, k2 index several tables each
-fn visit_3d<const D: usize, const N: usize>(
-    f: &[AxisFactors; D],
-    mut visit: impl FnMut(usize, usize, f64, Vector<D>),
-) {
+fn visit_3d<const D: usize, const N: usize, V: RowVisitor<D>>(f: &[AxisFactors; D], visit: &mut V) {
     let (f0, f1, f2) = (&f[0], &f[1], &f[2]);
     // [k1][k0]: s_0 s_1, s'_0 s_1, s'_1 s_0; [k2][k0]: s'_2 s_0.
     let s01: [[f64; N]; N] =
@@ -123,7 +139,7 @@ fn visit_3d<const D: usize, const N: usize>(
                     d1s0[k1][k0] * f2.s[k2],
                     d2s0[k2][k0] * f1.s[k1],
                 ];
-                visit(
+                visit.visit(
                     k0 + N * (k1 + N * k2),
                     node,
                     s01[k1][k0] * f2.s[k2],
@@ -136,9 +152,9 @@ fn visit_3d<const D: usize, const N: usize>(
 
 /// [`visit_row`] in any dimension: the odometer over the axes.
 #[inline(always)]
-fn visit_any<const D: usize, const N: usize>(
+fn visit_any<const D: usize, const N: usize, V: RowVisitor<D>>(
     f: &[AxisFactors; D],
-    mut visit: impl FnMut(usize, usize, f64, Vector<D>),
+    visit: &mut V,
 ) {
     let width = N.pow(D as u32);
     let mut ks = [0usize; D];
@@ -158,7 +174,7 @@ fn visit_any<const D: usize, const N: usize>(
             }
             v
         });
-        visit(m, node, w, g);
+        visit.visit(m, node, w, g);
         for k in ks.iter_mut() {
             *k += 1;
             if *k < N {

@@ -4,6 +4,7 @@
 
 use super::factor_metric::ParticleBounds;
 use super::factors::{form_row, AxisFactors};
+use super::shape::{AxisShape, BSplineAxis, GimpAxis, LinearAxis};
 use super::{GridNd, MaterialNd, ShapeNd, SummaryNd, Tensor, Vector, ViewWeightsNd, WeightsNd};
 use crate::grid::Boundary;
 use crate::reduce::Reduce;
@@ -49,10 +50,25 @@ pub(super) fn axis_factors<const D: usize>(
     x: &Vector<D>,
     l: &Vector<D>,
 ) -> Option<[AxisFactors; D]> {
-    let n_axis = shape.nodes_per_axis();
+    match shape {
+        ShapeNd::Gimp => axis_factors_as::<D, GimpAxis>(grid, strides, x, l),
+        ShapeNd::Linear => axis_factors_as::<D, LinearAxis>(grid, strides, x, l),
+        ShapeNd::BSpline2 => axis_factors_as::<D, BSplineAxis>(grid, strides, x, l),
+    }
+}
+
+/// [`axis_factors`] of shape `S`, inlined into a pass compiled for it.
+#[inline(always)]
+pub(super) fn axis_factors_as<const D: usize, S: AxisShape>(
+    grid: &GridNd<D>,
+    strides: &[usize; D],
+    x: &Vector<D>,
+    l: &Vector<D>,
+) -> Option<[AxisFactors; D]> {
+    let n_axis = S::NODES;
     let mut out = [AxisFactors::default(); D];
     for (a, f) in out.iter_mut().enumerate() {
-        let st = shape.axis(x[a] - grid.origin[a], l[a], grid.h[a]);
+        let st = S::stencil(x[a] - grid.origin[a], l[a], grid.h[a]);
         f.s = st.s;
         f.d = st.d;
         if grid.boundary[a] == Boundary::Periodic {
@@ -148,6 +164,32 @@ pub(super) fn particle_to_grid<const D: usize>(
             }
         });
     }
+    finish_nodal(
+        (node_mass, node_v, node_a, active),
+        gravity,
+        constrained,
+        threshold,
+        complete,
+    );
+    unformed
+}
+
+/// The nodal fields from the sums of a particle → grid pass: the sums completed over the
+/// processes of a split run, then `v_i = Σ S m v / m_i`, `a_i = (−Σ V σ ∇S)/m_i + g` on
+/// active nodes, zero on the others ([`particle_to_grid`]'s docs).
+pub(super) fn finish_nodal<const D: usize>(
+    (node_mass, node_v, node_a, active): (
+        &mut Vec<f64>,
+        &mut Vec<Vector<D>>,
+        &mut Vec<Vector<D>>,
+        &mut Vec<bool>,
+    ),
+    gravity: &Vector<D>,
+    constrained: &[bool],
+    threshold: f64,
+    complete: &NodalCompletion<'_, D>,
+) {
+    let nn = node_mass.len();
     // The other processes' sums, in a split run.
     complete(node_mass, node_v, node_a);
     active.clear();
@@ -163,7 +205,6 @@ pub(super) fn particle_to_grid<const D: usize>(
             node_a[i] = Vector::<D>::zeros();
         }
     }
-    unformed
 }
 
 /// Completes the nodal sums `Σ_p S m`, `Σ_p S m v`, `−Σ_p V σ ∇S` over the processes of a
@@ -261,51 +302,15 @@ pub(super) fn grid_to_particle<const D: usize>(
             }
             (acc, l)
         });
-        let mut v = from.v[p] + acc * dt;
-        let f = from.f[p] + l * from.f[p] * dt;
-        let sigma = material[p].update(&from.sigma[p], &l, &f, dt);
-        let mut x = from.x[p] + v * dt;
-        for a in 0..D {
-            let (lo, len) = (grid.origin[a], grid.length(a));
-            match grid.boundary[a] {
-                Boundary::Periodic => {
-                    if x[a] < lo || x[a] >= lo + len {
-                        x[a] = lo + (x[a] - lo).rem_euclid(len);
-                        if x[a] >= lo + len {
-                            x[a] = lo;
-                        }
-                    }
-                }
-                Boundary::Fixed => {
-                    // A particle that crosses a wall by less than half a cell is put back on
-                    // the wall with its velocity component across it removed (the walls hold
-                    // their nodes at rest: an inelastic, sticking wall); further is an
-                    // error (a blow-up, not contact).
-                    let slack = 0.5 * grid.h[a];
-                    if x[a] < lo || x[a] > lo + len {
-                        if !(lo - slack..=lo + len + slack).contains(&x[a]) && x[a].is_finite() {
-                            return Err(ParticleFault::OutOfDomain(p, a, x[a]));
-                        }
-                        x[a] = x[a].clamp(lo, lo + len);
-                        v[a] = 0.0;
-                    }
-                }
-            }
-        }
-        for (name, ok) in [
-            ("x", x.iter().all(|c| c.is_finite())),
-            ("v", v.iter().all(|c| c.is_finite())),
-            ("sigma", sigma.iter().all(|c| c.is_finite())),
-            ("F", f.iter().all(|c| c.is_finite())),
-        ] {
-            if !ok {
-                return Err(ParticleFault::NonFinite(name, p));
-            }
-        }
-        let j = super::det(&f);
-        if j <= 0.0 {
-            return Err(ParticleFault::Inverted(p, j));
-        }
+        let u = update_particle(
+            grid,
+            &material[p],
+            p,
+            (&from.x[p], &from.v[p], &from.f[p], &from.sigma[p]),
+            (&acc, &l),
+            dt,
+        )?;
+        let (x, v, f, sigma, j) = (u.x, u.v, u.f, u.sigma, u.det_f);
         if summarize {
             summary.kinetic += 0.5 * mass[p] * v.norm_squared();
             summary.strain += material[p].energy(&sigma, &f, volume0[p]);
@@ -321,4 +326,81 @@ pub(super) fn grid_to_particle<const D: usize>(
         }
     }
     Ok(summary)
+}
+
+/// A particle's fields after its grid → particle update.
+pub(super) struct Updated<const D: usize> {
+    pub x: Vector<D>,
+    pub v: Vector<D>,
+    pub f: Tensor<D>,
+    pub sigma: Tensor<D>,
+    /// `det F` of the new `F` (positive).
+    pub det_f: f64,
+}
+
+/// Particle `p`'s update from its committed `(x, v, F, σ)` = `old` and the grid's
+/// `(Σ S a_i, Σ v_iⁿ⁺¹ ⊗ ∇S)` = `gathered` ([`grid_to_particle`]'s docs): the new
+/// velocity, `F`, stress and position (wrapped or put back on a wall), every value checked.
+#[inline(always)]
+pub(super) fn update_particle<const D: usize>(
+    grid: &GridNd<D>,
+    material: &MaterialNd,
+    p: usize,
+    old: (&Vector<D>, &Vector<D>, &Tensor<D>, &Tensor<D>),
+    (acc, l): (&Vector<D>, &Tensor<D>),
+    dt: f64,
+) -> Result<Updated<D>, ParticleFault> {
+    let (x_old, v_old, f_old, sigma_old) = old;
+    let mut v = *v_old + acc * dt;
+    let f = *f_old + l * *f_old * dt;
+    let sigma = material.update(sigma_old, l, &f, dt);
+    let mut x = *x_old + v * dt;
+    for a in 0..D {
+        let (lo, len) = (grid.origin[a], grid.length(a));
+        match grid.boundary[a] {
+            Boundary::Periodic => {
+                if x[a] < lo || x[a] >= lo + len {
+                    x[a] = lo + (x[a] - lo).rem_euclid(len);
+                    if x[a] >= lo + len {
+                        x[a] = lo;
+                    }
+                }
+            }
+            Boundary::Fixed => {
+                // A particle that crosses a wall by less than half a cell is put back on
+                // the wall with its velocity component across it removed (the walls hold
+                // their nodes at rest: an inelastic, sticking wall); further is an
+                // error (a blow-up, not contact).
+                let slack = 0.5 * grid.h[a];
+                if x[a] < lo || x[a] > lo + len {
+                    if !(lo - slack..=lo + len + slack).contains(&x[a]) && x[a].is_finite() {
+                        return Err(ParticleFault::OutOfDomain(p, a, x[a]));
+                    }
+                    x[a] = x[a].clamp(lo, lo + len);
+                    v[a] = 0.0;
+                }
+            }
+        }
+    }
+    for (name, ok) in [
+        ("x", x.iter().all(|c| c.is_finite())),
+        ("v", v.iter().all(|c| c.is_finite())),
+        ("sigma", sigma.iter().all(|c| c.is_finite())),
+        ("F", f.iter().all(|c| c.is_finite())),
+    ] {
+        if !ok {
+            return Err(ParticleFault::NonFinite(name, p));
+        }
+    }
+    let j = super::det(&f);
+    if j <= 0.0 {
+        return Err(ParticleFault::Inverted(p, j));
+    }
+    Ok(Updated {
+        x,
+        v,
+        f,
+        sigma,
+        det_f: j,
+    })
 }

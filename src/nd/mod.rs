@@ -8,6 +8,7 @@
 pub mod factor_metric;
 pub mod factors;
 pub mod fields;
+mod fused;
 mod grid;
 mod kernels;
 mod material;

@@ -62,41 +62,75 @@ impl ShapeNd {
     #[inline(always)]
     pub fn axis(self, x: f64, l: f64, h: f64) -> AxisStencil {
         match self {
-            ShapeNd::Gimp => {
-                let st = Shape::Gimp.stencil(x, l, h);
-                AxisStencil {
-                    first: st.first,
-                    s: st.s,
-                    d: st.d,
-                }
-            }
-            ShapeNd::Linear => {
-                let st = Shape::Linear.stencil(x, l, h);
-                AxisStencil {
-                    first: st.first,
-                    s: st.s,
-                    d: st.d,
-                }
-            }
-            ShapeNd::BSpline2 => {
-                let inv_h = 1.0 / h;
-                let q = x * inv_h;
-                let base = crate::shape::floor(q - 0.5);
-                let f = q - base; // in [0.5, 1.5)
-                AxisStencil {
-                    first: base as i64,
-                    s: [
-                        0.5 * (1.5 - f) * (1.5 - f),
-                        0.75 - (f - 1.0) * (f - 1.0),
-                        0.5 * (f - 0.5) * (f - 0.5),
-                    ],
-                    d: [
-                        -(1.5 - f) * inv_h,
-                        -2.0 * (f - 1.0) * inv_h,
-                        (f - 0.5) * inv_h,
-                    ],
-                }
-            }
+            ShapeNd::Gimp => GimpAxis::stencil(x, l, h),
+            ShapeNd::Linear => LinearAxis::stencil(x, l, h),
+            ShapeNd::BSpline2 => BSplineAxis::stencil(x, l, h),
+        }
+    }
+}
+
+/// One shape's 1D weights as a type, so that a pass over many particles can be compiled
+/// for one shape ([`ShapeNd::axis`] chooses among them per call).
+pub(crate) trait AxisShape {
+    /// Nodes per axis ([`ShapeNd::nodes_per_axis`]).
+    const NODES: usize;
+    /// [`ShapeNd::axis`] of this shape.
+    fn stencil(x: f64, l: f64, h: f64) -> AxisStencil;
+}
+
+/// uGIMP ([`ShapeNd::Gimp`]).
+pub(crate) struct GimpAxis;
+/// Linear hats ([`ShapeNd::Linear`]).
+pub(crate) struct LinearAxis;
+/// Quadratic B-splines ([`ShapeNd::BSpline2`]).
+pub(crate) struct BSplineAxis;
+
+impl AxisShape for GimpAxis {
+    const NODES: usize = 3;
+    #[inline(always)]
+    fn stencil(x: f64, l: f64, h: f64) -> AxisStencil {
+        let st = Shape::Gimp.stencil(x, l, h);
+        AxisStencil {
+            first: st.first,
+            s: st.s,
+            d: st.d,
+        }
+    }
+}
+
+impl AxisShape for LinearAxis {
+    const NODES: usize = 2;
+    #[inline(always)]
+    fn stencil(x: f64, l: f64, h: f64) -> AxisStencil {
+        let st = Shape::Linear.stencil(x, l, h);
+        AxisStencil {
+            first: st.first,
+            s: st.s,
+            d: st.d,
+        }
+    }
+}
+
+impl AxisShape for BSplineAxis {
+    const NODES: usize = 3;
+    #[inline(always)]
+    fn stencil(x: f64, _: f64, h: f64) -> AxisStencil {
+        let inv_h = 1.0 / h;
+        let q = x * inv_h;
+        let base = crate::shape::floor(q - 0.5);
+        let f = q - base; // in [0.5, 1.5)
+        AxisStencil {
+            first: base as i64,
+            s: [
+                0.5 * (1.5 - f) * (1.5 - f),
+                0.75 - (f - 1.0) * (f - 1.0),
+                0.5 * (f - 0.5) * (f - 0.5),
+            ],
+            d: [
+                -(1.5 - f) * inv_h,
+                -2.0 * (f - 1.0) * inv_h,
+                (f - 0.5) * inv_h,
+            ],
         }
     }
 }

@@ -1,0 +1,221 @@
+//! The reference solver's step in one pass over the particles: each particle's grid →
+//! particle update ([`kernels::update_particle`]) followed at once by its share of the
+//! particle → grid pass at its new position, so that a step reads and writes each
+//! particle's fields once instead of twice.
+//!
+//! The nodal sums are made in the same order as by the two passes apart (particle by
+//! particle, in index order, into the trial's own nodal arrays, while the gather reads the
+//! committed state's), and every value is formed by the same functions: a fused step is
+//! the same, bit for bit, as [`kernels::grid_to_particle`] followed by
+//! [`kernels::particle_to_grid`]. A run whose particles move between processes between the
+//! two passes (a grid split into slabs) cannot fuse them and takes the two passes.
+
+use super::factor_metric::ParticleBounds;
+use super::factors::{visit_row_with, RowVisitor};
+use super::kernels::{self, axis_factors_as, Committed, ParticleFault, Written};
+use super::shape::{AxisShape, BSplineAxis, GimpAxis, LinearAxis};
+use super::{GridNd, MaterialNd, ShapeNd, SummaryNd, Tensor, Vector};
+
+/// What a fused step reads besides the committed particles.
+pub(super) struct FusedInputs<'a, const D: usize> {
+    /// The grid (whole: wraps and walls).
+    pub grid: &'a GridNd<D>,
+    pub shape: ShapeNd,
+    pub material: &'a [MaterialNd],
+    pub mass: &'a [f64],
+    pub volume0: &'a [f64],
+    /// GIMP domains (the same for the committed state and the trial).
+    pub domain: &'a [Vector<D>],
+    /// `v_iⁿ⁺¹ = v_i + dt a_i`.
+    pub node_v1: &'a [Vector<D>],
+    /// The moduli where they are constant (shared by both states).
+    pub constant_moduli: Option<(&'a [f64], &'a [f64])>,
+}
+
+/// The trial's nodal sums `Σ S m`, `Σ S m v`, `−Σ V σ ∇S`, written by a fused step
+/// (cleared first).
+pub(super) struct NodalSums<'a, const D: usize> {
+    pub mass: &'a mut Vec<f64>,
+    pub momentum: &'a mut Vec<Vector<D>>,
+    pub force: &'a mut Vec<Vector<D>>,
+}
+
+/// What a fused step found: the trial's summary (energies and first moment with
+/// `summarize`, else zeros) and the first particle whose new stencil could not be formed.
+pub(super) struct FusedOutcome<const D: usize> {
+    pub summary: SummaryNd<D>,
+    pub unformed: Option<usize>,
+}
+
+/// One step of `dt` for every particle (module docs): the committed state `from` (its
+/// weights formed from `from.x`), the trial written `into`, its nodal sums into `sums`
+/// (to be completed and normalised by [`kernels::finish_nodal`]), its element bound and
+/// sound-speed step into `bounds` while summaries are on. Stops at the first particle
+/// whose update fails, as [`kernels::grid_to_particle`] does.
+pub(super) fn fused_step<const D: usize>(
+    inputs: &FusedInputs<'_, D>,
+    dt: f64,
+    from: &Committed<'_, D>,
+    into: &mut Written<'_, D>,
+    sums: NodalSums<'_, D>,
+    summarize: bool,
+    bounds: Option<&mut ParticleBounds<'_, D>>,
+) -> Result<FusedOutcome<D>, ParticleFault> {
+    // Compiled once per shape: the 1D weights inlined into the pass.
+    match inputs.shape {
+        ShapeNd::Gimp => {
+            fused_step_as::<D, GimpAxis>(inputs, dt, from, into, sums, summarize, bounds)
+        }
+        ShapeNd::Linear => {
+            fused_step_as::<D, LinearAxis>(inputs, dt, from, into, sums, summarize, bounds)
+        }
+        ShapeNd::BSpline2 => {
+            fused_step_as::<D, BSplineAxis>(inputs, dt, from, into, sums, summarize, bounds)
+        }
+    }
+}
+
+/// [`fused_step`] for shape `S`.
+fn fused_step_as<const D: usize, S: AxisShape>(
+    inputs: &FusedInputs<'_, D>,
+    dt: f64,
+    from: &Committed<'_, D>,
+    into: &mut Written<'_, D>,
+    sums: NodalSums<'_, D>,
+    summarize: bool,
+    mut bounds: Option<&mut ParticleBounds<'_, D>>,
+) -> Result<FusedOutcome<D>, ParticleFault> {
+    let grid = inputs.grid;
+    let n_axis = S::NODES;
+    let strides: [usize; D] = std::array::from_fn(|a| grid.stride(a));
+    let nn = grid.n_nodes();
+    let (node_mass, node_mv, node_force) = (sums.mass, sums.momentum, sums.force);
+    node_mass.clear();
+    node_mass.resize(nn, 0.0);
+    node_mv.clear();
+    node_mv.resize(nn, Vector::<D>::zeros());
+    node_force.clear();
+    node_force.resize(nn, Vector::<D>::zeros());
+    let mut outcome = FusedOutcome {
+        summary: SummaryNd {
+            finite: true,
+            kinetic: 0.0,
+            strain: 0.0,
+            first_moment: Vector::<D>::zeros(),
+            element_bound: None,
+            sound_unit_step: None,
+        },
+        unformed: None,
+    };
+    for p in 0..from.x.len() {
+        let domain = &inputs.domain[p];
+        // Grid → particle from the committed position's stencil.
+        let mut gather = Gather {
+            node_a: from.node_a,
+            node_v1: inputs.node_v1,
+            acc: Vector::<D>::zeros(),
+            l: Tensor::<D>::zeros(),
+        };
+        if let Some(f) = axis_factors_as::<D, S>(grid, &strides, &from.x[p], domain) {
+            visit_row_with(&f, n_axis, &mut gather);
+        }
+        let (acc, l) = (gather.acc, gather.l);
+        let material = &inputs.material[p];
+        let u = kernels::update_particle(
+            grid,
+            material,
+            p,
+            (&from.x[p], &from.v[p], &from.f[p], &from.sigma[p]),
+            (&acc, &l),
+            dt,
+        )?;
+        let (mp, vol0) = (inputs.mass[p], inputs.volume0[p]);
+        if summarize {
+            let s = &mut outcome.summary;
+            s.kinetic += 0.5 * mp * u.v.norm_squared();
+            s.strain += material.energy(&u.sigma, &u.f, vol0);
+            s.first_moment += u.x * mp;
+        }
+        let density = mp / (u.det_f * vol0);
+        let moduli = match (inputs.constant_moduli, into.moduli.as_mut()) {
+            (_, Some((lambda, mu))) => {
+                (lambda[p], mu[p]) = material.tangent(u.det_f);
+                (lambda[p], mu[p])
+            }
+            (Some((lambda, mu)), None) => (lambda[p], mu[p]),
+            (None, None) => (f64::NAN, f64::NAN),
+        };
+        // Particle → grid at the new position, as `kernels::particle_to_grid` adds it.
+        let factors = axis_factors_as::<D, S>(grid, &strides, &u.x, domain);
+        let mv = u.v * mp;
+        let vol = super::det(&u.f) * vol0;
+        let vs = u.sigma * (-vol);
+        if let Some(b) = bounds.as_deref_mut() {
+            b.add_values(
+                moduli,
+                density,
+                &u.v,
+                vol / mp,
+                factors.as_ref().map(|f| (f, n_axis)),
+            );
+        }
+        match &factors {
+            Some(f) => visit_row_with(
+                f,
+                n_axis,
+                &mut Scatter {
+                    mass: node_mass,
+                    momentum: node_mv,
+                    force: node_force,
+                    mp,
+                    mv,
+                    vs,
+                },
+            ),
+            None => {
+                outcome.unformed.get_or_insert(p);
+            }
+        }
+        into.x[p] = u.x;
+        into.v[p] = u.v;
+        into.f[p] = u.f;
+        into.sigma[p] = u.sigma;
+        into.density[p] = density;
+    }
+    Ok(outcome)
+}
+
+/// The gather of grid → particle: `Σ S a_i` and `Σ v_iⁿ⁺¹ ⊗ ∇S`, in row order.
+struct Gather<'a, const D: usize> {
+    node_a: &'a [Vector<D>],
+    node_v1: &'a [Vector<D>],
+    acc: Vector<D>,
+    l: Tensor<D>,
+}
+
+impl<const D: usize> RowVisitor<D> for Gather<'_, D> {
+    #[inline(always)]
+    fn visit(&mut self, _: usize, i: usize, w: f64, g: Vector<D>) {
+        self.acc += self.node_a[i] * w;
+        self.l += self.node_v1[i] * g.transpose();
+    }
+}
+
+/// One particle's share of particle → grid: `S m`, `S m v` and `−V σ ∇S` = `vs ∇S`.
+struct Scatter<'a, const D: usize> {
+    mass: &'a mut [f64],
+    momentum: &'a mut [Vector<D>],
+    force: &'a mut [Vector<D>],
+    mp: f64,
+    mv: Vector<D>,
+    vs: Tensor<D>,
+}
+
+impl<const D: usize> RowVisitor<D> for Scatter<'_, D> {
+    #[inline(always)]
+    fn visit(&mut self, _: usize, i: usize, w: f64, g: Vector<D>) {
+        self.mass[i] += w * self.mp;
+        self.momentum[i] += self.mv * w;
+        self.force[i] += self.vs * g;
+    }
+}
