@@ -4,8 +4,12 @@
 //! a small plane wave), one warm-up step, then STEPS timed steps:
 //!
 //! ```text
-//! cargo run --release --example step_rate -- DIM SHAPE CELLS STEPS
+//! cargo run --release --example step_rate -- DIM SHAPE CELLS STEPS [THREADS]
 //! ```
+//!
+//! With THREADS the solver steps on that many threads ([`SolverNd::set_threads`]; 0: the
+//! calling thread, the default); the rate is then also given per wall-clock second, which
+//! is the figure that counts for threads (CPU time adds up over them).
 
 use mpm_dt::nd::{GridNd, MaterialNd, ParticlesNd, ShapeNd, SolverNd, Vector};
 use mpm_dt::{Boundary, Dim, Dimension, Stepper, ViewNd};
@@ -21,7 +25,7 @@ fn cpu_seconds() -> f64 {
     ns * 1e-9
 }
 
-fn run<const D: usize>(shape: ShapeNd, cells: usize, steps: usize)
+fn run<const D: usize>(shape: ShapeNd, cells: usize, steps: usize, threads: usize)
 where
     Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
 {
@@ -38,6 +42,9 @@ where
         Ok(s) => s,
         Err(e) => return eprintln!("set-up failed: {e}"),
     };
+    if let Err(e) = s.set_threads(Some(threads)) {
+        return eprintln!("{e}");
+    }
     // Half the sound-speed step h/c_p, as `benches/step_nd.rs`.
     let dt = 0.5 * s.grid().h_min() / material.p_modulus().sqrt();
     let step = |s: &mut SolverNd<D>| s.try_step(dt).and_then(|_| s.accept());
@@ -53,15 +60,17 @@ where
     let (cpu, wall) = (cpu_seconds() - c0, w0.elapsed().as_secs_f64());
     let n = (s.n_particles() * steps) as f64;
     println!(
-        "{D}D {shape:?} {} particles: {:.2} M/s by CPU time, {:.2} M/s by wall",
+        "{D}D {shape:?} {} particles, {} thread(s): {:.2} M/s by CPU time, {:.2} M/s by wall",
         s.n_particles(),
+        s.threads(),
         n / cpu / 1e6,
         n / wall / 1e6
     );
 }
 
 fn main() -> std::process::ExitCode {
-    const USAGE: &str = "usage: step_rate DIM(2|3) SHAPE(gimp|linear|bspline2) CELLS STEPS";
+    const USAGE: &str =
+        "usage: step_rate DIM(2|3) SHAPE(gimp|linear|bspline2) CELLS STEPS [THREADS]";
     let a: Vec<String> = std::env::args().skip(1).collect();
     let shape = match a.get(1).map(String::as_str) {
         Some("gimp") => ShapeNd::Gimp,
@@ -81,9 +90,17 @@ fn main() -> std::process::ExitCode {
         eprintln!("{USAGE}");
         return std::process::ExitCode::from(2);
     };
+    let threads = match a.get(4).map(|v| v.parse::<usize>()) {
+        None => 0,
+        Some(Ok(t)) => t,
+        Some(Err(_)) => {
+            eprintln!("{USAGE}");
+            return std::process::ExitCode::from(2);
+        }
+    };
     match a.first().map(String::as_str) {
-        Some("2") => run::<2>(shape, cells, steps),
-        Some("3") => run::<3>(shape, cells, steps),
+        Some("2") => run::<2>(shape, cells, steps, threads),
+        Some("3") => run::<3>(shape, cells, steps, threads),
         _ => {
             eprintln!("{USAGE}");
             return std::process::ExitCode::from(2);

@@ -166,6 +166,17 @@ impl<'a, const D: usize> ParticleBounds<'a, D> {
         }
     }
 
+    /// Takes in what `other` accumulated over other particles. The largest bound, the
+    /// smallest step and the NaN rules do not depend on the order particles were added
+    /// in, so accumulators merged in any order equal one that saw every particle.
+    pub fn merge(&mut self, other: &Self) {
+        if other.bound.is_nan() || (!self.bound.is_nan() && other.bound > self.bound) {
+            self.bound = other.bound;
+        }
+        self.unit = self.unit.min(other.unit);
+        self.speeds_finite &= other.speeds_finite;
+    }
+
     /// `(bound, unit step)`, the unit step NaN where a wave speed was not finite.
     pub fn result(&self) -> (f64, f64) {
         let unit = if self.speeds_finite {

@@ -14,6 +14,7 @@ use super::factor_metric::ParticleBounds;
 use super::factors::{visit_row_with, RowVisitor};
 use super::kernels::{self, axis_factors_as, Committed, ParticleFault, Written};
 use super::shape::{AxisShape, BSplineAxis, GimpAxis, LinearAxis};
+use super::threaded::{threaded_step, ThreadScratch};
 use super::{GridNd, MaterialNd, ShapeNd, SummaryNd, Tensor, Vector};
 
 /// What a fused step reads besides the committed particles.
@@ -52,7 +53,9 @@ pub(super) struct FusedOutcome<const D: usize> {
 /// (to be completed and normalised by [`kernels::finish_nodal`]), its element bound and
 /// sound-speed step into `bounds` while summaries are on. Stops at the first particle
 /// whose update fails, as [`kernels::grid_to_particle`] does.
+#[allow(clippy::too_many_arguments)]
 pub(super) fn fused_step<const D: usize>(
+    threads: Option<(&rayon::ThreadPool, &mut ThreadScratch)>,
     inputs: &FusedInputs<'_, D>,
     dt: f64,
     from: &Committed<'_, D>,
@@ -64,14 +67,34 @@ pub(super) fn fused_step<const D: usize>(
     // Compiled once per shape: the 1D weights inlined into the pass.
     match inputs.shape {
         ShapeNd::Gimp => {
-            fused_step_as::<D, GimpAxis>(inputs, dt, from, into, sums, summarize, bounds)
+            fused_step_on::<D, GimpAxis>(threads, inputs, dt, from, into, sums, summarize, bounds)
         }
         ShapeNd::Linear => {
-            fused_step_as::<D, LinearAxis>(inputs, dt, from, into, sums, summarize, bounds)
+            fused_step_on::<D, LinearAxis>(threads, inputs, dt, from, into, sums, summarize, bounds)
         }
-        ShapeNd::BSpline2 => {
-            fused_step_as::<D, BSplineAxis>(inputs, dt, from, into, sums, summarize, bounds)
-        }
+        ShapeNd::BSpline2 => fused_step_on::<D, BSplineAxis>(
+            threads, inputs, dt, from, into, sums, summarize, bounds,
+        ),
+    }
+}
+
+/// [`fused_step`] for shape `S`, on one thread or on a pool ([`super::threaded`]).
+#[allow(clippy::too_many_arguments)]
+fn fused_step_on<const D: usize, S: AxisShape>(
+    threads: Option<(&rayon::ThreadPool, &mut ThreadScratch)>,
+    inputs: &FusedInputs<'_, D>,
+    dt: f64,
+    from: &Committed<'_, D>,
+    into: &mut Written<'_, D>,
+    sums: NodalSums<'_, D>,
+    summarize: bool,
+    bounds: Option<&mut ParticleBounds<'_, D>>,
+) -> Result<FusedOutcome<D>, ParticleFault> {
+    match threads {
+        Some((pool, scratch)) => threaded_step::<D, S>(
+            pool, scratch, inputs, dt, from, into, sums, summarize, bounds,
+        ),
+        None => fused_step_as::<D, S>(inputs, dt, from, into, sums, summarize, bounds),
     }
 }
 
@@ -186,11 +209,11 @@ fn fused_step_as<const D: usize, S: AxisShape>(
 }
 
 /// The gather of grid → particle: `Σ S a_i` and `Σ v_iⁿ⁺¹ ⊗ ∇S`, in row order.
-struct Gather<'a, const D: usize> {
-    node_a: &'a [Vector<D>],
-    node_v1: &'a [Vector<D>],
-    acc: Vector<D>,
-    l: Tensor<D>,
+pub(super) struct Gather<'a, const D: usize> {
+    pub node_a: &'a [Vector<D>],
+    pub node_v1: &'a [Vector<D>],
+    pub acc: Vector<D>,
+    pub l: Tensor<D>,
 }
 
 impl<const D: usize> RowVisitor<D> for Gather<'_, D> {

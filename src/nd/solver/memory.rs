@@ -36,7 +36,8 @@ impl<const D: usize> SolverNd<D> {
     /// Bytes of heap memory the solver holds (its arrays' capacities): the committed state
     /// and the trial, the carried fields and the moduli (once where the two states share
     /// them),
-    /// the grid's nodal flags and the nodal velocities of the step. Module docs of
+    /// the grid's nodal flags and the nodal velocities of the step, and on threads the
+    /// particles' order by slab (8 bytes each). Module docs of
     /// [`SolverNd`] for what is O(particles) and what O(nodes); a grid-decomposed run's
     /// slab tables are not counted.
     pub fn memory_bytes(&self) -> usize {
@@ -61,5 +62,6 @@ impl<const D: usize> SolverNd<D> {
             + moduli
             + heap(&self.constrained)
             + heap(&self.node_v1)
+            + self.scratch.memory_bytes()
     }
 }

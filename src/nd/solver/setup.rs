@@ -4,6 +4,7 @@
 use super::{CarriedNd, ModuliNd, SolverNd, Split, StateNd, INACTIVE_MASS_RATIO};
 use crate::nd::particles::{ParticlesNd, SetupNdError};
 use crate::nd::slab::SlabNd;
+use crate::nd::threaded::ThreadScratch;
 use crate::nd::{GridNd, MaterialNd, ShapeNd, Tensor, Vector};
 use crate::reduce::Reduce;
 use std::rc::Rc;
@@ -165,6 +166,8 @@ impl<const D: usize> SolverNd<D> {
             n_total,
             summarize: false,
             constant_moduli,
+            threads: None,
+            scratch: ThreadScratch::default(),
         };
         let mut c = std::mem::take(&mut solver.committed);
         solver

@@ -4,6 +4,7 @@ use super::{SolverNd, StateNd};
 use crate::nd::factor_metric::ParticleBounds;
 use crate::nd::fused::{fused_step, FusedInputs, NodalSums};
 use crate::nd::kernels::{self, Committed, ParticleFault, Written};
+use crate::nd::threaded::ThreadScratch;
 use crate::nd::{SummaryNd, Tensor, Vector, ViewWeightsNd};
 use crate::stepper::StepError;
 use std::rc::Rc;
@@ -39,7 +40,10 @@ impl<const D: usize> SolverNd<D> {
         }
         let (t, step) = (c.t, c.step);
         let (result, derived) = if self.split.slab().is_none() {
-            self.fused_trial(dt, &mut trial)
+            let mut scratch = std::mem::take(&mut self.scratch);
+            let parts = self.fused_trial(dt, &mut trial, &mut scratch);
+            self.scratch = scratch;
+            parts
         } else {
             self.two_pass_trial(dt, &mut trial)
         };
@@ -72,7 +76,12 @@ impl<const D: usize> SolverNd<D> {
     /// in one pass over the particles ([`crate::nd::fused`]): the trial's totals (or the
     /// error of its first failed particle) and its derived state's
     /// [`SolverNd::derive_state`] result.
-    fn fused_trial(&self, dt: f64, trial: &mut StateNd<D>) -> TrialParts<D> {
+    fn fused_trial(
+        &self,
+        dt: f64,
+        trial: &mut StateNd<D>,
+        scratch: &mut ThreadScratch,
+    ) -> TrialParts<D> {
         let c = &self.committed;
         let StateNd {
             x,
@@ -122,10 +131,10 @@ impl<const D: usize> SolverNd<D> {
             force: node_a,
         };
         let h: [f64; D] = std::array::from_fn(|a| self.grid.h[a]);
-        let mut bounds = self
-            .summarize
-            .then(|| ParticleBounds::detached(h));
+        let mut bounds = self.summarize.then(|| ParticleBounds::detached(h));
+        let threads = self.threads.as_deref().map(|pool| (pool, scratch));
         let outcome = fused_step(
+            threads,
             &inputs,
             dt,
             &from,
@@ -375,7 +384,7 @@ mod tests {
                                 s.trial_step(1e-3).expect("a stable step");
                                 *state = s.trial.clone();
                                 let parts = if fuse {
-                                    s.fused_trial(1e-3, state)
+                                    s.fused_trial(1e-3, state, &mut ThreadScratch::default())
                                 } else {
                                     s.two_pass_trial(1e-3, state)
                                 };
