@@ -1,8 +1,12 @@
 //! Runs a scenario of any dimension under mpm-dt's controller.
 //!
 //! ```text
-//! cargo run --release --example simulate -- --scenario FILE [--json] [--fixed-dt DT --steps K] [--compare [--repeat N]]
+//! cargo run --release --example simulate -- --scenario FILE [--json] [--fixed-dt DT --steps K] [--compare [--repeat N]] [--threads N]
 //! ```
+//!
+//! * `--threads N` (2D/3D): the solver steps on N threads (`SolverNd::set_threads`; the
+//!   fixed rules of `--compare` too) and the limits' passes over the particles run on N
+//!   threads of their own (`Controller::with_threads`).
 //!
 //! * default: the controller (1D: `Controller::standard`; 2D/3D: the standard limits of
 //!   `mpm_dt::limits_nd`) runs the scenario to its `t_end`; a summary is printed (one JSON
@@ -54,7 +58,7 @@ use std::rc::Rc;
 use std::time::Instant;
 
 const USAGE: &str =
-    "usage: simulate --scenario FILE [--json] [--fixed-dt DT --steps K] [--compare [--repeat N]]";
+    "usage: simulate --scenario FILE [--json] [--fixed-dt DT --steps K] [--compare [--repeat N]] [--threads N]";
 
 struct Args {
     scenario: String,
@@ -62,6 +66,7 @@ struct Args {
     fixed: Option<(f64, u64)>,
     compare: bool,
     repeat: usize,
+    threads: Option<usize>,
 }
 
 fn parse_args() -> Result<Option<Args>, String> {
@@ -69,6 +74,7 @@ fn parse_args() -> Result<Option<Args>, String> {
     let (mut json, mut compare) = (false, false);
     let (mut dt, mut steps) = (None, None);
     let mut repeat = None;
+    let mut threads = None;
     let mut it = std::env::args().skip(1);
     while let Some(a) = it.next() {
         match a.as_str() {
@@ -77,6 +83,15 @@ fn parse_args() -> Result<Option<Args>, String> {
             "--compare" => compare = true,
             "--repeat" => repeat = Some(common::repeats::parse_repeat(it.next())?),
             "--scenario" => scenario = Some(it.next().ok_or("--scenario needs a file")?),
+            "--threads" => {
+                let v = it.next().ok_or("--threads needs a count")?;
+                threads = Some(
+                    v.parse::<usize>()
+                        .ok()
+                        .filter(|&n| n > 0)
+                        .ok_or(format!("--threads: not a positive count: {v}"))?,
+                );
+            }
             "--fixed-dt" => {
                 let v = it.next().ok_or("--fixed-dt needs a value")?;
                 let v: f64 = v
@@ -115,6 +130,7 @@ fn parse_args() -> Result<Option<Args>, String> {
         fixed,
         compare,
         repeat: repeat.unwrap_or(3),
+        threads,
     }))
 }
 
@@ -191,6 +207,7 @@ where
         None => scenario.build::<D>(),
     }
     .map_err(|e| e.to_string())?;
+    s.set_threads(args.threads).map_err(|e| e.to_string())?;
     // The initial state for the side-by-side runs; no copy otherwise.
     let template = args.compare.then(|| s.clone());
     let e0 = ranks.sum(s.total_energy());
@@ -219,7 +236,9 @@ where
     }
     let config: ControllerConfig = scenario.controller_config().map_err(|e| e.to_string())?;
     let mut controller =
-        common::controller_nd::controller_for(scenario, config.clone(), ranks.reduce.as_ref())?;
+        common::controller_nd::controller_for(scenario, config.clone(), ranks.reduce.as_ref())?
+            .with_threads(args.threads)
+            .map_err(|e| e.to_string())?;
     let start = Instant::now();
     let mut last_rejection = None;
     let mut refreshes = (0.0, 0.0);
@@ -296,6 +315,9 @@ where
 }
 
 fn run_1d(text: &str, args: &Args) -> Result<Value, String> {
+    if args.threads.is_some() {
+        return Err("--threads runs 2D/3D scenarios (the 1D solver steps on one thread)".into());
+    }
     if args.compare {
         return Err(
             "--compare runs 2D/3D scenarios; for a 1D scenario use the compare example \

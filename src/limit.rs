@@ -211,6 +211,15 @@ where
         let _ = reduce;
     }
 
+    /// Hands the limit a pool of threads for its passes over the particles (`None`: the
+    /// calling thread); called by
+    /// [`Controller::with_threads`](crate::controller::Controller::with_threads). A limit
+    /// that uses it gives the same proposals and verdicts, bit for bit, on any number of
+    /// threads. Default: ignored (the limit's passes run on the calling thread).
+    fn set_threads(&mut self, pool: Option<std::sync::Arc<rayon::ThreadPool>>) {
+        let _ = pool;
+    }
+
     /// The limit's internal state (histories, warm starts) for a checkpoint, or `None`
     /// when the limit is stateless (the default). Restoring it with
     /// [`StepLimit::restore_state`] must make the limit behave bit-identically.

@@ -21,7 +21,11 @@ where
     Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
 {
     let mut s = template.clone();
-    let mut controller = common::controller_nd::controller_for(scenario, config.clone(), None)?;
+    // The limits on the solver's threads, as `simulate --threads` sets them.
+    let threads = (s.threads() > 1).then(|| s.threads());
+    let mut controller = common::controller_nd::controller_for(scenario, config.clone(), None)?
+        .with_threads(threads)
+        .map_err(|e| e.to_string())?;
     let start = Instant::now();
     controller
         .run_until(&mut s, scenario.t_end, &mut |_| {})

@@ -16,6 +16,10 @@ pub enum ControllerError {
     /// The configuration is invalid.
     #[error(transparent)]
     Config(#[from] ConfigError),
+    /// The pool of threads for the limits could not be started
+    /// ([`Controller::with_threads`]).
+    #[error("cannot start the controller's threads: {0}")]
+    Threads(String),
     /// One step was rejected `count` times in a row.
     #[error("{count} consecutive rejections at t = {} (last dt = {}, cause {}{})", Num(*t), Num(last.dt), last.cause.map_or("none", RejectCause::as_str), last.message.as_deref().map(|m| format!(": {m}")).unwrap_or_default())]
     TooManyRejections {

@@ -152,6 +152,28 @@ where
         self
     }
 
+    /// Runs the limits' passes over the particles on `threads` threads of a pool of their
+    /// own (`None` or `Some(0)`: on the calling thread, the default), for a stepper whose
+    /// own step is threaded (for instance [`crate::nd::SolverNd::set_threads`]), so that
+    /// the controller's share of a step does not grow as the stepper's shrinks. Every
+    /// decision is the same, bit for bit, on any number of threads. The limits that use it:
+    /// the d-dimensional stability limit's layout guard ([`crate::limits_nd::StabilityNd`]).
+    pub fn with_threads(mut self, threads: Option<usize>) -> Result<Self, ControllerError> {
+        let pool = match threads {
+            None | Some(0) => None,
+            Some(n) => Some(std::sync::Arc::new(
+                rayon::ThreadPoolBuilder::new()
+                    .num_threads(n)
+                    .build()
+                    .map_err(|e| ControllerError::Threads(e.to_string()))?,
+            )),
+        };
+        for limit in self.limits.iter_mut() {
+            limit.set_threads(pool.clone());
+        }
+        Ok(self)
+    }
+
     /// The configuration.
     pub fn config(&self) -> &ControllerConfig {
         &self.config

@@ -77,6 +77,7 @@
 //! limit's safety for the rest of the run ([`StepLimit::scale_safety`]).
 
 mod guard;
+mod guard_scan;
 
 use super::bound_tracking::BoundTracking;
 use super::stability_config::StabilityNdConfig;
@@ -131,6 +132,8 @@ pub struct StabilityNd<const D: usize> {
     last_products: Option<u64>,
     /// The run's reductions ([`StepLimit::set_reduce`]).
     reduce: Rc<dyn Reduce>,
+    /// Threads for the layout guard's pass ([`StepLimit::set_threads`]).
+    pool: Option<std::sync::Arc<rayon::ThreadPool>>,
 }
 
 impl<const D: usize> StabilityNd<D> {
@@ -153,6 +156,7 @@ impl<const D: usize> StabilityNd<D> {
             tracking: BoundTracking::default(),
             last_products: None,
             reduce: Rc::new(SingleProcess),
+            pool: None,
         }
     }
 
@@ -488,6 +492,10 @@ where
 
     fn set_reduce(&mut self, reduce: Rc<dyn Reduce>) {
         self.reduce = reduce;
+    }
+
+    fn set_threads(&mut self, pool: Option<std::sync::Arc<rayon::ThreadPool>>) {
+        self.pool = pool;
     }
 
     fn memory_bytes(&self) -> usize {

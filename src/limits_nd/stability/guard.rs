@@ -8,9 +8,11 @@
 //! positions would make it refresh, and in addition only when a displacement lies within
 //! that bound (about `10⁻⁷` of a coordinate) below the threshold.
 
+use super::guard_scan::{scan, GuardRefs, GuardRows, GuardScan, GUARD_CHUNK};
 use super::StabilityNd;
 use crate::limits_nd::stiffness::diagonal_argmax;
 use crate::nd::{Vector, ViewNd};
+use rayon::prelude::*;
 
 /// Relative bound on the difference between a position and its single-precision
 /// reference, with the rounding of the displacement's arithmetic: `2^-22`, four times the
@@ -23,6 +25,12 @@ fn single<const D: usize>(x: &Vector<D>, origin: &[f64; D]) -> [f32; D] {
     std::array::from_fn(|a| (x[a] - origin[a]) as f32)
 }
 
+/// `(V(dλ_t + 2μ_t), Vμ_t)` of a particle of volume `vol` ([`StabilityNd`]'s guard).
+#[inline]
+pub(super) fn moduli_of<const D: usize>(vol: f64, l: f64, m: f64) -> (f64, f64) {
+    (vol * (D as f64 * l + 2.0 * m), vol * m)
+}
+
 /// Whether a particle at `x` has moved more than `lim` cells on some axis from its
 /// single-precision reference `x_ref` (relative to the grid's origin; on a periodic axis of
 /// length `period` modulo the box); `None` where a displacement is NaN.
@@ -30,7 +38,7 @@ fn single<const D: usize>(x: &Vector<D>, origin: &[f64; D]) -> [f32; D] {
 /// The reference is the position rounded to single precision: the threshold is lowered by
 /// a bound on that rounding (and on the arithmetic's), so the guard refreshes whenever the
 /// exact positions would have it refresh.
-fn moved_past<const D: usize>(
+pub(super) fn moved_past<const D: usize>(
     x: &Vector<D>,
     x_ref: &[f32; D],
     grid: &crate::nd::GridNd<D>,
@@ -80,16 +88,7 @@ impl<const D: usize> StabilityNd<D> {
     /// and `2Vμ_t` (deviatoric), the latter stored halved as `Vμ_t`.
     #[inline]
     fn moduli(view: &ViewNd<'_, D>, p: usize) -> (f64, f64) {
-        let vol = view.volume(p);
-        let (l, m) = (view.lame_lambda[p], view.lame_mu[p]);
-        (vol * (D as f64 * l + 2.0 * m), vol * m)
-    }
-
-    /// Where particle `p`'s reference values are kept: its run-wide identity on a
-    /// decomposed grid (particles move between processes), else its index.
-    #[inline]
-    fn key(view: &ViewNd<'_, D>, p: usize) -> usize {
-        view.split.as_ref().map_or(p, |s| s.particle_id[p] as usize)
+        moduli_of::<D>(view.volume(p), view.lame_lambda[p], view.lame_mu[p])
     }
 
     /// Number of particle references kept: the whole run's on a decomposed grid.
@@ -151,35 +150,36 @@ impl<const D: usize> StabilityNd<D> {
             crate::Boundary::Periodic => grid.length(a),
             _ => f64::INFINITY,
         });
-        let mut growth: f64 = 1.0;
-        let mut moved = false;
-        for p in 0..view.n_particles() {
-            let key = Self::key(view, p);
-            if check_motion && !moved {
-                match moved_past(&view.x[p], &self.x_ref[key], grid, &period, lim) {
-                    Some(m) => moved = m,
-                    None => return Staleness::Stale,
-                }
-            }
-            let (bulk, shear) = Self::moduli(view, p);
-            let (bulk_ref, shear_ref) = self.moduli_ref[key];
-            let r_bulk = bulk / bulk_ref;
-            let r_shear = if shear_ref > 0.0 {
-                shear / shear_ref
-            } else if shear > 0.0 {
-                f64::INFINITY
-            } else {
-                0.0
-            };
-            let r = r_bulk.max(r_shear);
-            // NaN (a non-finite modulus) forces a refresh.
-            if r.is_nan() || r > growth_limit {
-                return Staleness::Stale;
-            }
-            growth = growth.max(r);
+        let rows = GuardRows::of(view);
+        let refs = GuardRefs {
+            x: &self.x_ref,
+            moduli: &self.moduli_ref,
+            grid,
+            period,
+            lim,
+            growth_limit,
+        };
+        let n = view.n_particles();
+        let found = match &self.pool {
+            // On the controller's threads: chunks of a fixed size, combined by `any` and
+            // `max`, which do not depend on the order, so the result is the one-thread
+            // result bit for bit.
+            Some(pool) if n > GUARD_CHUNK => pool.install(|| {
+                (0..n.div_ceil(GUARD_CHUNK))
+                    .into_par_iter()
+                    .map(|k| {
+                        let r = k * GUARD_CHUNK..((k + 1) * GUARD_CHUNK).min(n);
+                        scan(&rows, &refs, r, check_motion)
+                    })
+                    .reduce(GuardScan::default, GuardScan::merge)
+            }),
+            _ => scan(&rows, &refs, 0..n, check_motion),
+        };
+        if found.stale {
+            return Staleness::Stale;
         }
-        let growth = growth.max(self.diag_growth);
-        if moved {
+        let growth = found.growth.max(self.diag_growth);
+        if found.moved {
             Staleness::Moved(growth)
         } else {
             Staleness::Fresh(growth)
