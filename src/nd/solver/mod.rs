@@ -7,7 +7,20 @@
 //! particle pass, and every state — committed or trial — carries the nodal fields of its
 //! own particle positions, as the [`ViewNd`] promises. No state stores its weights: every
 //! pass forms a particle's row from its position, GIMP domain, the grid and the shape
-//! ([`ViewWeightsNd`]), bit for bit the row a stored form would hold.
+//! ([`ViewWeightsNd`]), bit for bit the row a stored form would hold. The two passes are
+//! made in one sweep over the particles (each particle's update, then at once its share of
+//! the particle → grid sums at its new position), bit for bit the two passes apart; a grid
+//! split into slabs over processes makes them apart, particles moving between processes in
+//! between.
+//!
+//! # Threads
+//!
+//! [`SolverNd::set_threads`] runs a step on a pool of threads: the updates in fixed chunks
+//! of particles, then the particle → grid sums slab by slab across the last axis, the
+//! slabs in four colours so that those run at once never add to the same node. Chunks and
+//! slabs depend on the particle count and the grid only, so the state after a step is the
+//! same, bit for bit, on any number of threads; it differs from the unthreaded step's by
+//! round-off (the sums are made in another order).
 //!
 //! The trial is written into a second buffer; [`Stepper::accept`] swaps the buffers and
 //! [`Stepper::reject`] drops the trial, so the committed state is never written by a trial
