@@ -7,7 +7,7 @@
 use mpm_dt::controller::{Controller, ControllerConfig, Outcome};
 use mpm_dt::limits_nd::element_bound::element_bound;
 use mpm_dt::limits_nd::stiffness::dense_lambda_max;
-use mpm_dt::limits_nd::{standard_limits, StabilityNd, StabilityNdConfig, STABILITY};
+use mpm_dt::limits_nd::{standard_limits, SoundSpeedNd, StabilityNd, StabilityNdConfig, STABILITY};
 use mpm_dt::nd::{GridNd, MaterialNd, ParticlesNd, ShapeNd, SolverNd, Vector};
 use mpm_dt::reduce::SingleProcess;
 use mpm_dt::{Boundary, Dim, Dimension, Stepper, ViewNd};
@@ -68,7 +68,28 @@ where
         "supplied bound {supplied:e} against the library's {bound:e}"
     );
     let dense = dense_lambda_max(&view).expect("dense eigenvalues");
+    same_sound_step(&view);
+    // After a step the solver hands over what its own step's pass accumulated.
+    let dt = 0.1 * SoundSpeedNd::unit_step(&view).expect("a finite state");
+    s.try_step(dt)
+        .and_then(|_| s.accept())
+        .expect("a small step");
+    same_sound_step(&s.view());
     (bound, dense)
+}
+
+/// The speed-of-sound unit step the solver hands over is the library's, bit for bit.
+fn same_sound_step<const D: usize>(view: &ViewNd<'_, D>) {
+    let supplied = view
+        .summary
+        .and_then(|x| x.sound_unit_step)
+        .expect("supplied");
+    let library = SoundSpeedNd::unit_step(view).expect("a finite state");
+    assert_eq!(
+        supplied.to_bits(),
+        library.to_bits(),
+        "{supplied:e} against {library:e}"
+    );
 }
 
 fn shape_of(i: usize) -> ShapeNd {

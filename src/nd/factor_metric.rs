@@ -94,8 +94,11 @@ pub(crate) struct ParticleBounds<'a, const D: usize> {
     pub h: [f64; D],
     /// `max_p λ_p` so far (`+∞` once a metric is unbounded, NaN once a value is).
     pub bound: f64,
-    /// The unit step so far.
-    pub unit: f64,
+    /// Per axis, the largest signal speed `c_p + |v_{p,a}|` so far: the unit step is
+    /// `min_a h_a / max_p (c_p + |v_{p,a}|)`, which equals `min_p min_a h_a/(c_p + |v_{p,a}|)`
+    /// exactly (a correctly rounded division is monotone in its divisor) at one division
+    /// per axis instead of one per particle and axis.
+    pub fastest: [f64; D],
     /// Every wave speed so far is finite.
     pub speeds_finite: bool,
 }
@@ -120,7 +123,7 @@ impl<'a, const D: usize> ParticleBounds<'a, D> {
             density,
             h,
             bound: 0.0,
-            unit: f64::INFINITY,
+            fastest: [0.0; D],
             speeds_finite: true,
         }
     }
@@ -154,7 +157,8 @@ impl<'a, const D: usize> ParticleBounds<'a, D> {
         let c = ((l + 2.0 * m) / density).sqrt();
         self.speeds_finite &= c.is_finite();
         for a in 0..D {
-            self.unit = self.unit.min(self.h[a] / (c + v[a].abs()));
+            // `max` skips a NaN as the per-particle `min` of the quotients did.
+            self.fastest[a] = self.fastest[a].max(c + v[a].abs());
         }
         let lambda_p = match factors.and_then(|(f, n)| gradient_metric(f, n, &self.h)) {
             Some((row_sum, trace)) => from_metric::<D>(row_sum, trace, per_mass, l, m),
@@ -173,14 +177,16 @@ impl<'a, const D: usize> ParticleBounds<'a, D> {
         if other.bound.is_nan() || (!self.bound.is_nan() && other.bound > self.bound) {
             self.bound = other.bound;
         }
-        self.unit = self.unit.min(other.unit);
+        for a in 0..D {
+            self.fastest[a] = self.fastest[a].max(other.fastest[a]);
+        }
         self.speeds_finite &= other.speeds_finite;
     }
 
     /// `(bound, unit step)`, the unit step NaN where a wave speed was not finite.
     pub fn result(&self) -> (f64, f64) {
         let unit = if self.speeds_finite {
-            self.unit
+            (0..D).fold(f64::INFINITY, |u, a| u.min(self.h[a] / self.fastest[a]))
         } else {
             f64::NAN
         };
