@@ -51,16 +51,10 @@ pub struct ParticleStencil {
 #[inline(always)]
 fn hat_integral(r: f64, inv_h: f64) -> f64 {
     let q = (r * inv_h).clamp(-1.0, 1.0);
-    // Both halves formed and one selected: which half a node falls in depends on the
-    // particle's position, so a branch here mispredicts about half the time. The values
-    // are the same as with a branch (`q + 1` on the left, `1 − q` on the right).
-    let left = q <= 0.0;
-    let t = if left { q + 1.0 } else { 1.0 - q };
-    let half_square = 0.5 * t * t;
-    if left {
-        half_square
+    if q <= 0.0 {
+        0.5 * (q + 1.0) * (q + 1.0)
     } else {
-        1.0 - half_square
+        1.0 - 0.5 * (1.0 - q) * (1.0 - q)
     }
 }
 
