@@ -64,37 +64,22 @@ pub(super) fn fused_step<const D: usize>(
     summarize: bool,
     bounds: Option<&mut ParticleBounds<'_, D>>,
 ) -> Result<FusedOutcome<D>, ParticleFault> {
-    // Compiled once per shape: the 1D weights inlined into the pass.
-    match inputs.shape {
-        ShapeNd::Gimp => {
-            fused_step_on::<D, GimpAxis>(threads, inputs, dt, from, into, sums, summarize, bounds)
-        }
-        ShapeNd::Linear => {
-            fused_step_on::<D, LinearAxis>(threads, inputs, dt, from, into, sums, summarize, bounds)
-        }
-        ShapeNd::BSpline2 => fused_step_on::<D, BSplineAxis>(
-            threads, inputs, dt, from, into, sums, summarize, bounds,
-        ),
+    // Compiled once per shape: the 1D weights inlined into the pass; on one thread or on
+    // a pool ([`super::threaded`]).
+    macro_rules! for_shape {
+        ($shape:ty) => {
+            match threads {
+                Some((pool, scratch)) => threaded_step::<D, $shape>(
+                    pool, scratch, inputs, dt, from, into, sums, summarize, bounds,
+                ),
+                None => fused_step_as::<D, $shape>(inputs, dt, from, into, sums, summarize, bounds),
+            }
+        };
     }
-}
-
-/// [`fused_step`] for shape `S`, on one thread or on a pool ([`super::threaded`]).
-#[allow(clippy::too_many_arguments)]
-fn fused_step_on<const D: usize, S: AxisShape>(
-    threads: Option<(&rayon::ThreadPool, &mut ThreadScratch)>,
-    inputs: &FusedInputs<'_, D>,
-    dt: f64,
-    from: &Committed<'_, D>,
-    into: &mut Written<'_, D>,
-    sums: NodalSums<'_, D>,
-    summarize: bool,
-    bounds: Option<&mut ParticleBounds<'_, D>>,
-) -> Result<FusedOutcome<D>, ParticleFault> {
-    match threads {
-        Some((pool, scratch)) => threaded_step::<D, S>(
-            pool, scratch, inputs, dt, from, into, sums, summarize, bounds,
-        ),
-        None => fused_step_as::<D, S>(inputs, dt, from, into, sums, summarize, bounds),
+    match inputs.shape {
+        ShapeNd::Gimp => for_shape!(GimpAxis),
+        ShapeNd::Linear => for_shape!(LinearAxis),
+        ShapeNd::BSpline2 => for_shape!(BSplineAxis),
     }
 }
 
@@ -120,14 +105,7 @@ fn fused_step_as<const D: usize, S: AxisShape>(
     node_force.clear();
     node_force.resize(nn, Vector::<D>::zeros());
     let mut outcome = FusedOutcome {
-        summary: SummaryNd {
-            finite: true,
-            kinetic: 0.0,
-            strain: 0.0,
-            first_moment: Vector::<D>::zeros(),
-            element_bound: None,
-            sound_unit_step: None,
-        },
+        summary: SummaryNd::zero(true),
         unformed: None,
     };
     for p in 0..from.x.len() {

@@ -281,14 +281,7 @@ pub(super) fn grid_to_particle<const D: usize>(
     mut into: Written<'_, D>,
     summarize: bool,
 ) -> Result<SummaryNd<D>, ParticleFault> {
-    let mut summary = SummaryNd {
-        finite: true,
-        kinetic: 0.0,
-        strain: 0.0,
-        first_moment: Vector::<D>::zeros(),
-        element_bound: None,
-        sound_unit_step: None,
-    };
+    let mut summary = SummaryNd::zero(true);
     for p in 0..from.x.len() {
         // The row formed on the stack first: a visitor's closure this large is not
         // inlined into the unrolled stencil loop.

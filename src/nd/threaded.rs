@@ -219,14 +219,7 @@ fn grid_to_particle<const D: usize, S: AxisShape>(
         .into_par_iter()
         .map(|chunk| update_chunk::<D, S>(inputs, dt, from, chunk, slabs, summarize))
         .collect();
-    let mut summary = SummaryNd {
-        finite: true,
-        kinetic: 0.0,
-        strain: 0.0,
-        first_moment: Vector::<D>::zeros(),
-        element_bound: None,
-        sound_unit_step: None,
-    };
+    let mut summary = SummaryNd::zero(true);
     for t in totals {
         if let Some(fault) = t.fault {
             return Err(fault);

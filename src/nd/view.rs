@@ -125,6 +125,21 @@ pub struct SummaryNd<const D: usize> {
     pub sound_unit_step: Option<f64>,
 }
 
+impl<const D: usize> SummaryNd<D> {
+    /// Zero totals, no bounds, with the given finiteness: where a pass starts summing
+    /// (`true`), or what a failed pass hands over (`false`).
+    pub fn zero(finite: bool) -> Self {
+        Self {
+            finite,
+            kinetic: 0.0,
+            strain: 0.0,
+            first_moment: Vector::<D>::zeros(),
+            element_bound: None,
+            sound_unit_step: None,
+        }
+    }
+}
+
 impl<const D: usize> ViewNd<'_, D> {
     /// Number of particles.
     pub fn n_particles(&self) -> usize {

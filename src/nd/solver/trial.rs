@@ -246,14 +246,7 @@ impl<const D: usize> SolverNd<D> {
         if !self.summarize {
             return None;
         }
-        let mine = mine.unwrap_or(SummaryNd {
-            finite: false,
-            kinetic: 0.0,
-            strain: 0.0,
-            first_moment: Vector::<D>::zeros(),
-            element_bound: None,
-            sound_unit_step: None,
-        });
+        let mine = mine.unwrap_or(SummaryNd::zero(false));
         let (element_bound, sound_unit_step) = self.whole_run_bounds(local);
         Some(SummaryNd {
             element_bound,
