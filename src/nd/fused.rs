@@ -41,6 +41,19 @@ pub(super) struct NodalSums<'a, const D: usize> {
     pub force: &'a mut Vec<Vector<D>>,
 }
 
+impl<'a, const D: usize> NodalSums<'a, D> {
+    /// The sums set to zero on `n_nodes` nodes (their storage reused).
+    pub fn zeroed(self, n_nodes: usize) -> Self {
+        self.mass.clear();
+        self.mass.resize(n_nodes, 0.0);
+        for v in [&mut *self.momentum, &mut *self.force] {
+            v.clear();
+            v.resize(n_nodes, Vector::<D>::zeros());
+        }
+        self
+    }
+}
+
 /// What a fused step found: the trial's summary (energies and first moment with
 /// `summarize`, else zeros) and the first particle whose new stencil could not be formed.
 pub(super) struct FusedOutcome<const D: usize> {
@@ -96,14 +109,8 @@ fn fused_step_as<const D: usize, S: AxisShape>(
     let grid = inputs.grid;
     let n_axis = S::NODES;
     let strides: [usize; D] = std::array::from_fn(|a| grid.stride(a));
-    let nn = grid.n_nodes();
+    let sums = sums.zeroed(grid.n_nodes());
     let (node_mass, node_mv, node_force) = (sums.mass, sums.momentum, sums.force);
-    node_mass.clear();
-    node_mass.resize(nn, 0.0);
-    node_mv.clear();
-    node_mv.resize(nn, Vector::<D>::zeros());
-    node_force.clear();
-    node_force.resize(nn, Vector::<D>::zeros());
     let mut outcome = FusedOutcome {
         summary: SummaryNd::zero(true),
         unformed: None,

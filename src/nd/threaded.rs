@@ -158,13 +158,7 @@ pub(super) fn threaded_step<const D: usize, S: AxisShape>(
         )
     })?;
     sort_by_slab(scratch, slabs.count());
-    let nn = inputs.grid.n_nodes();
-    sums.mass.clear();
-    sums.mass.resize(nn, 0.0);
-    for v in [&mut *sums.momentum, &mut *sums.force] {
-        v.clear();
-        v.resize(nn, Vector::<D>::zeros());
-    }
+    let sums = sums.zeroed(inputs.grid.n_nodes());
     let (unformed, found) = pool.install(|| {
         particle_to_grid::<D, S>(inputs, into, &slabs, scratch, sums, bounds.is_some())
     });
