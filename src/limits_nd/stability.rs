@@ -170,25 +170,6 @@ impl<const D: usize> StabilityNd<D> {
         self.refreshes
     }
 
-    /// Smallest active nodal mass, `+∞` when no node is active (on a decomposed grid,
-    /// [`ViewNd::split`], the smallest over the processes: one reduction).
-    fn smallest_node_mass(&self, view: &ViewNd<'_, D>) -> f64 {
-        let local = view
-            .node_mass
-            .iter()
-            .zip(view.node_active)
-            .filter(|(_, &a)| a)
-            .fold(f64::INFINITY, |m, (&mi, _)| m.min(mi));
-        match view.split {
-            None => local,
-            Some(_) => {
-                Self::agreement(&*self.reduce, view)
-                    .min_and_any(local, false)
-                    .0
-            }
-        }
-    }
-
     /// The reductions the processes agree with: a decomposed view's own
     /// ([`crate::nd::NodalHalo::reduce`]), so that a limit the run forgot to give its
     /// reducer ([`StepLimit::set_reduce`]) still takes part in every collective; else

@@ -91,6 +91,25 @@ impl<const D: usize> StabilityNd<D> {
         moduli_of::<D>(view.volume(p), view.lame_lambda[p], view.lame_mu[p])
     }
 
+    /// Smallest active nodal mass, `+∞` when no node is active (on a decomposed grid,
+    /// [`ViewNd::split`], the smallest over the processes: one reduction).
+    pub(super) fn smallest_node_mass(&self, view: &ViewNd<'_, D>) -> f64 {
+        let local = view
+            .node_mass
+            .iter()
+            .zip(view.node_active)
+            .filter(|(_, &a)| a)
+            .fold(f64::INFINITY, |m, (&mi, _)| m.min(mi));
+        match view.split {
+            None => local,
+            Some(_) => {
+                Self::agreement(&*self.reduce, view)
+                    .min_and_any(local, false)
+                    .0
+            }
+        }
+    }
+
     /// Number of particle references kept: the whole run's on a decomposed grid.
     fn n_refs(view: &ViewNd<'_, D>) -> usize {
         view.split

@@ -40,7 +40,10 @@
 mod memory;
 mod own_bounds;
 mod setup;
+mod threads;
 mod trial;
+
+pub use threads::ThreadsError;
 
 use super::kernels;
 use super::particles::SetupNdError;
@@ -54,11 +57,6 @@ use crate::reduce::Reduce;
 use crate::stepper::{StepError, Stepper};
 use std::rc::Rc;
 use std::sync::Arc;
-
-/// A thread pool could not be built ([`SolverNd::set_threads`]).
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("cannot start the solver's threads: {0}")]
-pub struct ThreadsError(pub String);
 
 /// Relative nodal-mass threshold: nodes with `m_i ≤ 1e-14 · min_p m_p` are inactive.
 pub const INACTIVE_MASS_RATIO: f64 = 1e-14;
@@ -281,30 +279,6 @@ impl<const D: usize> SolverNd<D> {
             &mut vec![Vector::<D>::zeros(); nn],
             &mut vec![Vector::<D>::zeros(); nn],
         );
-    }
-
-    /// Runs each step on `threads` threads of a pool of its own (`None` or `Some(0)`: on the
-    /// calling thread, the default), by the slab-coloured step of
-    /// [`crate::nd`]'s threaded kernels: the state after a step is the same, bit for bit,
-    /// on any number of threads, and differs from the unthreaded solver's by round-off
-    /// (the nodal and energy sums are made in another order). A grid split into slabs
-    /// over processes ([`Self::new_slab`]) steps on the calling thread.
-    pub fn set_threads(&mut self, threads: Option<usize>) -> Result<(), ThreadsError> {
-        self.threads = match threads {
-            None | Some(0) => None,
-            Some(n) => Some(Arc::new(
-                rayon::ThreadPoolBuilder::new()
-                    .num_threads(n)
-                    .build()
-                    .map_err(|e| ThreadsError(e.to_string()))?,
-            )),
-        };
-        Ok(())
-    }
-
-    /// The number of threads a step runs on (1: the calling thread).
-    pub fn threads(&self) -> usize {
-        self.threads.as_ref().map_or(1, |p| p.current_num_threads())
     }
 
     /// The (whole) grid.
