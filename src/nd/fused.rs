@@ -19,6 +19,8 @@ use super::{GridNd, MaterialNd, ShapeNd, SummaryNd, Tensor, Vector};
 
 /// What a fused step reads besides the committed particles.
 pub(super) struct FusedInputs<'a, const D: usize> {
+    /// The step.
+    pub dt: f64,
     /// The grid (whole: wraps and walls).
     pub grid: &'a GridNd<D>,
     pub shape: ShapeNd,
@@ -63,18 +65,16 @@ pub(super) struct FusedOutcome<const D: usize> {
 
 /// One step of `dt` for every particle (module docs): the committed state `from` (its
 /// weights formed from `from.x`), the trial written `into`, its nodal sums into `sums`
-/// (to be completed and normalised by [`kernels::finish_nodal`]), its element bound and
-/// sound-speed step into `bounds` while summaries are on. Stops at the first particle
-/// whose update fails, as [`kernels::grid_to_particle`] does.
-#[allow(clippy::too_many_arguments)]
+/// (to be completed and normalised by [`kernels::finish_nodal`]). With `bounds` (summaries
+/// on) it also sums the trial's totals and accumulates its element bound and sound-speed
+/// step there. Stops at the first particle whose update fails, as
+/// [`kernels::grid_to_particle`] does.
 pub(super) fn fused_step<const D: usize>(
     threads: Option<(&rayon::ThreadPool, &mut ThreadScratch)>,
     inputs: &FusedInputs<'_, D>,
-    dt: f64,
     from: &Committed<'_, D>,
     into: &mut Written<'_, D>,
     sums: NodalSums<'_, D>,
-    summarize: bool,
     bounds: Option<&mut ParticleBounds<'_, D>>,
 ) -> Result<FusedOutcome<D>, ParticleFault> {
     // Compiled once per shape: the 1D weights inlined into the pass; on one thread or on
@@ -82,10 +82,10 @@ pub(super) fn fused_step<const D: usize>(
     macro_rules! for_shape {
         ($shape:ty) => {
             match threads {
-                Some((pool, scratch)) => threaded_step::<D, $shape>(
-                    pool, scratch, inputs, dt, from, into, sums, summarize, bounds,
-                ),
-                None => fused_step_as::<D, $shape>(inputs, dt, from, into, sums, summarize, bounds),
+                Some((pool, scratch)) => {
+                    threaded_step::<D, $shape>(pool, scratch, inputs, from, into, sums, bounds)
+                }
+                None => fused_step_as::<D, $shape>(inputs, from, into, sums, bounds),
             }
         };
     }
@@ -99,14 +99,12 @@ pub(super) fn fused_step<const D: usize>(
 /// [`fused_step`] for shape `S`.
 fn fused_step_as<const D: usize, S: AxisShape>(
     inputs: &FusedInputs<'_, D>,
-    dt: f64,
     from: &Committed<'_, D>,
     into: &mut Written<'_, D>,
     sums: NodalSums<'_, D>,
-    summarize: bool,
     mut bounds: Option<&mut ParticleBounds<'_, D>>,
 ) -> Result<FusedOutcome<D>, ParticleFault> {
-    let grid = inputs.grid;
+    let (grid, dt, summarize) = (inputs.grid, inputs.dt, bounds.is_some());
     let n_axis = S::NODES;
     let strides: [usize; D] = std::array::from_fn(|a| grid.stride(a));
     let sums = sums.zeroed(grid.n_nodes());

@@ -131,31 +131,20 @@ struct ChunkTotals<const D: usize> {
 }
 
 /// [`super::fused::fused_step`] on the threads of `pool` (module docs), for shape `S`.
-#[allow(clippy::too_many_arguments)]
 pub(super) fn threaded_step<const D: usize, S: AxisShape>(
     pool: &rayon::ThreadPool,
     scratch: &mut ThreadScratch,
     inputs: &FusedInputs<'_, D>,
-    dt: f64,
     from: &Committed<'_, D>,
     into: &mut Written<'_, D>,
     sums: NodalSums<'_, D>,
-    summarize: bool,
     bounds: Option<&mut ParticleBounds<'_, D>>,
 ) -> Result<FusedOutcome<D>, ParticleFault> {
-    let n = from.x.len();
+    let (n, summarize) = (from.x.len(), bounds.is_some());
     let slabs = Slabs::of(inputs.grid);
     scratch.slab_of.resize(n, 0);
     let summary = pool.install(|| {
-        grid_to_particle::<D, S>(
-            inputs,
-            dt,
-            from,
-            into,
-            &slabs,
-            &mut scratch.slab_of,
-            summarize,
-        )
+        grid_to_particle::<D, S>(inputs, from, into, &slabs, &mut scratch.slab_of, summarize)
     })?;
     sort_by_slab(scratch, slabs.count());
     let sums = sums.zeroed(inputs.grid.n_nodes());
@@ -171,7 +160,6 @@ pub(super) fn threaded_step<const D: usize, S: AxisShape>(
 /// Phase 1 (module docs): every particle's update, chunk by chunk in parallel.
 fn grid_to_particle<const D: usize, S: AxisShape>(
     inputs: &FusedInputs<'_, D>,
-    dt: f64,
     from: &Committed<'_, D>,
     into: &mut Written<'_, D>,
     slabs: &Slabs,
@@ -211,7 +199,7 @@ fn grid_to_particle<const D: usize, S: AxisShape>(
         .collect();
     let totals: Vec<ChunkTotals<D>> = chunks
         .into_par_iter()
-        .map(|chunk| update_chunk::<D, S>(inputs, dt, from, chunk, slabs, summarize))
+        .map(|chunk| update_chunk::<D, S>(inputs, from, chunk, slabs, summarize))
         .collect();
     let mut summary = SummaryNd::zero(true);
     for t in totals {
@@ -228,7 +216,6 @@ fn grid_to_particle<const D: usize, S: AxisShape>(
 /// One chunk of phase 1: [`super::fused`]'s grid → particle half, particle by particle.
 fn update_chunk<const D: usize, S: AxisShape>(
     inputs: &FusedInputs<'_, D>,
-    dt: f64,
     from: &Committed<'_, D>,
     chunk: ChunkMut<'_, D>,
     slabs: &Slabs,
@@ -266,7 +253,7 @@ fn update_chunk<const D: usize, S: AxisShape>(
         }
         let material = &inputs.material[p];
         let old = (&from.x[p], &from.v[p], &from.f[p], &from.sigma[p]);
-        let u = match update_particle(grid, material, p, old, (&gather.acc, &gather.l), dt) {
+        let u = match update_particle(grid, material, p, old, (&gather.acc, &gather.l), inputs.dt) {
             Ok(u) => u,
             Err(fault) => {
                 totals.fault = Some(fault);

@@ -107,6 +107,7 @@ impl<const D: usize> SolverNd<D> {
             }
         };
         let inputs = FusedInputs {
+            dt,
             grid: &self.grid,
             shape: self.shape,
             material: &c.carried.material,
@@ -133,16 +134,7 @@ impl<const D: usize> SolverNd<D> {
         let h: [f64; D] = std::array::from_fn(|a| self.grid.h[a]);
         let mut bounds = self.summarize.then(|| ParticleBounds::detached(h));
         let threads = self.threads.as_deref().map(|pool| (pool, scratch));
-        let outcome = fused_step(
-            threads,
-            &inputs,
-            dt,
-            &from,
-            &mut into,
-            sums,
-            self.summarize,
-            bounds.as_mut(),
-        );
+        let outcome = fused_step(threads, &inputs, &from, &mut into, sums, bounds.as_mut());
         let outcome = match outcome {
             Ok(outcome) => outcome,
             Err(fault) => {
