@@ -78,6 +78,7 @@
 //! The library logs through `tracing` and never installs a subscriber.
 
 pub mod controller;
+mod cpu;
 pub mod dimension;
 pub mod estimators;
 pub mod fmt_num;

@@ -139,7 +139,7 @@ impl Weights {
         let (x, widths) = (&x[..n], &widths[..n]);
         let out = (&mut self.nodes[..], &mut self.s[..], &mut self.d[..]);
         #[cfg(target_arch = "x86_64")]
-        if crate::mpm::has_avx2() {
+        if crate::cpu::has_avx2() {
             // SAFETY: `fill_avx2` only requires AVX2, which `has_avx2` detected on this CPU.
             unsafe { fill_avx2(grid, shape, x, widths, out) };
             return;

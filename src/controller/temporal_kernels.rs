@@ -102,7 +102,7 @@ pub(super) fn dispatch_rates(
     stress_rate: &mut [f64],
 ) -> Scales {
     #[cfg(target_arch = "x86_64")]
-    if crate::mpm::has_avx2() {
+    if crate::cpu::has_avx2() {
         // SAFETY: `rates_avx2` only requires AVX2, which `has_avx2` detected on this CPU.
         return unsafe { rates_avx2(&f, inv_dt, accel, stress_rate) };
     }
@@ -113,7 +113,7 @@ pub(super) fn dispatch_rates(
 /// over the first `n` particles.
 pub(super) fn dispatch_sums(t: Terms<'_>, n: usize) -> (f64, f64) {
     #[cfg(target_arch = "x86_64")]
-    if crate::mpm::has_avx2() {
+    if crate::cpu::has_avx2() {
         // SAFETY: `sums_avx2` only requires AVX2, which `has_avx2` detected on this CPU.
         return unsafe { sums_avx2(&t, n) };
     }

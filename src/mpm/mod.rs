@@ -47,5 +47,3 @@ mod summary_lanes;
 pub use material::Material;
 pub use reference::{ReferenceStepper, SolverCheckpoint, INACTIVE_MASS_FRACTION};
 pub use setup::{ParticleInit, SetupError};
-#[cfg(target_arch = "x86_64")]
-pub(crate) use step::has_avx2;

@@ -6,13 +6,13 @@ use super::material::Material;
 use super::slot_window::SlotWindow;
 use super::state::State;
 use super::stencil;
-#[cfg(target_arch = "x86_64")]
-use super::step::has_avx2;
 use super::step::{
     band_slots, base_slot, deposit, deposit_band, stiffness_weights, Ctx, Workspace,
 };
 use super::summary_lanes::{Block, SummaryLanes, SummaryParts};
 use crate::controller::ENERGY_LANES;
+#[cfg(target_arch = "x86_64")]
+use crate::cpu::has_avx2;
 use crate::grid::Boundary;
 use crate::shape::{Shape, MAX_NODES};
 

@@ -437,14 +437,6 @@ pub(crate) fn advance(
     Ok(())
 }
 
-/// Whether the CPU runs the AVX2 builds of the particle pass and of
-/// [`crate::Weights::compute_into`], detected once per process.
-#[cfg(target_arch = "x86_64")]
-pub(crate) fn has_avx2() -> bool {
-    static AVX2: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
-    *AVX2.get_or_init(|| is_x86_feature_detected!("avx2"))
-}
-
 /// The first failure of a trial, most basic first: non-finite values, then inversion,
 /// then a particle outside a fixed domain.
 fn first_failure(flags: &PassFlags, to: &State) -> Option<Failure> {

@@ -120,7 +120,7 @@ impl SummaryLanes {
     #[inline(always)]
     pub(super) fn add(&mut self, material: Material, tangent: impl Fn(f64) -> f64, b: Block<'_>) {
         #[cfg(target_arch = "x86_64")]
-        let avx2 = super::has_avx2();
+        let avx2 = crate::cpu::has_avx2();
         #[cfg(not(target_arch = "x86_64"))]
         let avx2 = false;
         let checks = self.add_block(material, tangent, b, avx2);
@@ -310,7 +310,7 @@ mod tests {
                         rho_out: &mut rho,
                     };
                     #[cfg(target_arch = "x86_64")]
-                    let avx = avx && super::super::has_avx2();
+                    let avx = avx && crate::cpu::has_avx2();
                     let checks = lanes.add_block(material, tangent, b, avx);
                     let bits = |x: &[f64]| x.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
                     (

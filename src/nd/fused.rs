@@ -85,7 +85,7 @@ pub(super) fn fused_step<const D: usize>(
                 Some((pool, scratch)) => {
                     threaded_step::<D, $shape>(pool, scratch, inputs, from, into, sums, bounds)
                 }
-                None => fused_step_as::<D, $shape>(inputs, from, into, sums, bounds),
+                None => fused_step_dispatch::<D, $shape>(inputs, from, into, sums, bounds),
             }
         };
     }
@@ -96,7 +96,38 @@ pub(super) fn fused_step<const D: usize>(
     }
 }
 
-/// [`fused_step`] for shape `S`.
+/// [`fused_step_as`] in the AVX2 build where the CPU has it, else in the baseline build
+/// ([`crate::cpu`]).
+fn fused_step_dispatch<const D: usize, S: AxisShape>(
+    inputs: &FusedInputs<'_, D>,
+    from: &Committed<'_, D>,
+    into: &mut Written<'_, D>,
+    sums: NodalSums<'_, D>,
+    bounds: Option<&mut ParticleBounds<'_, D>>,
+) -> Result<FusedOutcome<D>, ParticleFault> {
+    #[cfg(target_arch = "x86_64")]
+    if crate::cpu::has_avx2() {
+        // SAFETY: `fused_step_avx2` only requires AVX2, which `has_avx2` detected on this CPU.
+        return unsafe { fused_step_avx2::<D, S>(inputs, from, into, sums, bounds) };
+    }
+    fused_step_as::<D, S>(inputs, from, into, sums, bounds)
+}
+
+/// [`fused_step_as`] compiled for AVX2 ([`crate::cpu`]).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn fused_step_avx2<const D: usize, S: AxisShape>(
+    inputs: &FusedInputs<'_, D>,
+    from: &Committed<'_, D>,
+    into: &mut Written<'_, D>,
+    sums: NodalSums<'_, D>,
+    bounds: Option<&mut ParticleBounds<'_, D>>,
+) -> Result<FusedOutcome<D>, ParticleFault> {
+    fused_step_as::<D, S>(inputs, from, into, sums, bounds)
+}
+
+/// [`fused_step`] for shape `S`, inlined into each instruction-set build.
+#[inline(always)]
 fn fused_step_as<const D: usize, S: AxisShape>(
     inputs: &FusedInputs<'_, D>,
     from: &Committed<'_, D>,

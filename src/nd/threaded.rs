@@ -199,7 +199,7 @@ fn grid_to_particle<const D: usize, S: AxisShape>(
         .collect();
     let totals: Vec<ChunkTotals<D>> = chunks
         .into_par_iter()
-        .map(|chunk| update_chunk::<D, S>(inputs, from, chunk, slabs, summarize))
+        .map(|chunk| update_chunk_dispatch::<D, S>(inputs, from, chunk, slabs, summarize))
         .collect();
     let mut summary = SummaryNd::zero(true);
     for t in totals {
@@ -213,7 +213,38 @@ fn grid_to_particle<const D: usize, S: AxisShape>(
     Ok(summary)
 }
 
-/// One chunk of phase 1: [`super::fused`]'s grid → particle half, particle by particle.
+/// [`update_chunk`] in the AVX2 build where the CPU has it, else in the baseline build.
+fn update_chunk_dispatch<const D: usize, S: AxisShape>(
+    inputs: &FusedInputs<'_, D>,
+    from: &Committed<'_, D>,
+    chunk: ChunkMut<'_, D>,
+    slabs: &Slabs,
+    summarize: bool,
+) -> ChunkTotals<D> {
+    #[cfg(target_arch = "x86_64")]
+    if crate::cpu::has_avx2() {
+        // SAFETY: `update_chunk_avx2` only requires AVX2, which `has_avx2` detected.
+        return unsafe { update_chunk_avx2::<D, S>(inputs, from, chunk, slabs, summarize) };
+    }
+    update_chunk::<D, S>(inputs, from, chunk, slabs, summarize)
+}
+
+/// [`update_chunk`] compiled for AVX2 ([`crate::cpu`]).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn update_chunk_avx2<const D: usize, S: AxisShape>(
+    inputs: &FusedInputs<'_, D>,
+    from: &Committed<'_, D>,
+    chunk: ChunkMut<'_, D>,
+    slabs: &Slabs,
+    summarize: bool,
+) -> ChunkTotals<D> {
+    update_chunk::<D, S>(inputs, from, chunk, slabs, summarize)
+}
+
+/// One chunk of phase 1: [`super::fused`]'s grid → particle half, particle by particle
+/// (inlined into each instruction-set build, [`crate::cpu`]).
+#[inline(always)]
 fn update_chunk<const D: usize, S: AxisShape>(
     inputs: &FusedInputs<'_, D>,
     from: &Committed<'_, D>,
@@ -330,7 +361,7 @@ fn particle_to_grid<const D: usize, S: AxisShape>(
                 // SAFETY: the slabs of one colour add to disjoint nodes (module docs), and
                 // the tasks of one colour are all that touch the nodal arrays meanwhile.
                 unsafe {
-                    scatter_slab::<D, S>(
+                    scatter_slab_dispatch::<D, S>(
                         inputs,
                         into,
                         &scratch.order[r.clone()],
@@ -366,10 +397,49 @@ struct SharedNodes<const D: usize> {
 unsafe impl<const D: usize> Send for SharedNodes<D> {}
 unsafe impl<const D: usize> Sync for SharedNodes<D> {}
 
-/// One slab's particles added to the nodes, in the order of `particles`.
+/// [`scatter_slab`] in the AVX2 build where the CPU has it, else in the baseline build.
+///
+/// # Safety
+/// As [`scatter_slab`].
+unsafe fn scatter_slab_dispatch<const D: usize, S: AxisShape>(
+    inputs: &FusedInputs<'_, D>,
+    into: &Written<'_, D>,
+    particles: &[u32],
+    nodes: SharedNodes<D>,
+    with_bounds: bool,
+) -> (Option<usize>, Option<ParticleBounds<'static, D>>) {
+    #[cfg(target_arch = "x86_64")]
+    if crate::cpu::has_avx2() {
+        // SAFETY: AVX2 detected by `has_avx2`; the caller keeps `scatter_slab`'s contract.
+        return unsafe { scatter_slab_avx2::<D, S>(inputs, into, particles, nodes, with_bounds) };
+    }
+    // SAFETY: the caller keeps `scatter_slab`'s contract.
+    unsafe { scatter_slab::<D, S>(inputs, into, particles, nodes, with_bounds) }
+}
+
+/// [`scatter_slab`] compiled for AVX2 ([`crate::cpu`]).
+///
+/// # Safety
+/// As [`scatter_slab`].
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn scatter_slab_avx2<const D: usize, S: AxisShape>(
+    inputs: &FusedInputs<'_, D>,
+    into: &Written<'_, D>,
+    particles: &[u32],
+    nodes: SharedNodes<D>,
+    with_bounds: bool,
+) -> (Option<usize>, Option<ParticleBounds<'static, D>>) {
+    // SAFETY: the caller keeps `scatter_slab`'s contract.
+    unsafe { scatter_slab::<D, S>(inputs, into, particles, nodes, with_bounds) }
+}
+
+/// One slab's particles added to the nodes, in the order of `particles` (inlined into
+/// each instruction-set build, [`crate::cpu`]).
 ///
 /// # Safety
 /// No other thread may read or write the nodes these particles touch meanwhile.
+#[inline(always)]
 unsafe fn scatter_slab<const D: usize, S: AxisShape>(
     inputs: &FusedInputs<'_, D>,
     into: &Written<'_, D>,

@@ -267,7 +267,7 @@ pub(super) fn power_pass(
 /// The pass in the best build the CPU supports.
 fn dispatch(inputs: &Inputs<'_>, z: &mut [f64]) -> Lane {
     #[cfg(target_arch = "x86_64")]
-    if crate::mpm::has_avx2() {
+    if crate::cpu::has_avx2() {
         // SAFETY: `pass_avx2` only requires AVX2, which `has_avx2` has confirmed on this CPU.
         return unsafe { pass_avx2(inputs, z) };
     }

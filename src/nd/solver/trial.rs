@@ -339,7 +339,9 @@ mod tests {
 
     /// The fused step writes the same trial, bit for bit, as grid → particle followed by
     /// particle → grid, for every shape, both boundaries, constant and evolving moduli,
-    /// with summaries off and on.
+    /// with summaries off and on. On a CPU with AVX2 the fused step runs in its AVX2 build
+    /// and the two passes in the baseline build, so this also checks that the two builds
+    /// agree bit for bit ([`crate::cpu`]).
     #[test]
     fn the_fused_step_is_the_two_passes_bit_for_bit() {
         let materials = [
