@@ -215,7 +215,8 @@ where
     /// calling thread); called by
     /// [`Controller::with_threads`](crate::controller::Controller::with_threads). A limit
     /// that uses it gives the same proposals and verdicts, bit for bit, on any number of
-    /// threads. Default: ignored (the limit's passes run on the calling thread).
+    /// the pool's threads (sums may be taken in another order than without a pool: say so
+    /// where they are). Default: ignored (the limit's passes run on the calling thread).
     fn set_threads(&mut self, pool: Option<std::sync::Arc<rayon::ThreadPool>>) {
         let _ = pool;
     }

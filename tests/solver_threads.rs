@@ -185,12 +185,15 @@ fn a_failed_threaded_step_names_the_same_particle_and_restores_the_state() {
 }
 
 /// Under the controller a threaded solver takes the same steps on 1 and 2 threads, with
-/// the limits' passes on the calling thread or on 1 or 2 threads of their own.
+/// the limits' passes on 1 or 2 threads of their own: the same steps and temporal errors
+/// (`dsm`) bit for bit. With the limits on the calling thread the temporal error's sums
+/// are taken in one chunk instead of two, so `dsm` and the steps agree to round-off.
 #[test]
 fn the_controller_takes_the_same_steps_on_one_and_two_threads() {
-    let mut dts = Vec::new();
-    for (solver_threads, limit_threads) in [(1, None), (1, Some(1)), (2, Some(2))] {
-        // 48² cells, 9 216 particles: the layout guard's pass runs in two ranges.
+    let mut runs = Vec::new();
+    for (solver_threads, limit_threads) in [(1, Some(1)), (2, Some(2)), (1, None)] {
+        // 48² cells, 9 216 particles: the layout guard's and the temporal error's passes
+        // run in two ranges.
         let mut s = solver::<2>(ShapeNd::Gimp, Boundary::Fixed, NEO_HOOKEAN, 48);
         s.set_threads(Some(solver_threads)).expect("a thread pool");
         let config = ControllerConfig::default();
@@ -201,11 +204,25 @@ fn the_controller_takes_the_same_steps_on_one_and_two_threads() {
         let mut taken = Vec::new();
         for _ in 0..20 {
             let decisions = c.step(&mut s, 1.0).expect("an accepted step");
-            taken.extend(decisions.iter().map(|d| d.dt.to_bits()));
+            taken.extend(decisions.iter().map(|d| (d.dt, d.dsm)));
         }
-        dts.push(taken);
+        runs.push(taken);
     }
-    assert!(dts[0].len() >= 20);
-    assert_eq!(dts[0], dts[1]);
-    assert_eq!(dts[0], dts[2]);
+    let bits = |run: &[(f64, Option<f64>)]| -> Vec<(u64, Option<u64>)> {
+        run.iter()
+            .map(|(dt, dsm)| (dt.to_bits(), dsm.map(f64::to_bits)))
+            .collect()
+    };
+    assert!(runs[0].len() >= 20);
+    assert!(runs[0].iter().filter(|(_, dsm)| dsm.is_some()).count() >= 10);
+    assert_eq!(bits(&runs[0]), bits(&runs[1]));
+    assert_eq!(runs[0].len(), runs[2].len());
+    let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * a.abs().max(b.abs());
+    for ((dt1, dsm1), (dt0, dsm0)) in runs[0].iter().zip(&runs[2]) {
+        assert!(close(*dt1, *dt0), "step {dt1} against {dt0}");
+        match (dsm1, dsm0) {
+            (Some(a), Some(b)) => assert!(close(*a, *b), "dsm {a} against {b}"),
+            (a, b) => assert_eq!(a.is_some(), b.is_some()),
+        }
+    }
 }

@@ -156,8 +156,12 @@ where
     /// own (`None` or `Some(0)`: on the calling thread, the default), for a stepper whose
     /// own step is threaded (for instance [`crate::nd::SolverNd::set_threads`]), so that
     /// the controller's share of a step does not grow as the stepper's shrinks. Every
-    /// decision is the same, bit for bit, on any number of threads. The limits that use it:
-    /// the d-dimensional stability limit's layout guard ([`crate::limits_nd::StabilityNd`]).
+    /// decision is the same, bit for bit, on any number of threads (`Some(1)` included). The
+    /// limits that use it: the d-dimensional stability limit's layout guard
+    /// ([`crate::limits_nd::StabilityNd`]), whose maxima do not depend on the order either,
+    /// so it is also bit for bit the unthreaded run; and the temporal error's sweeps
+    /// ([`crate::limits_nd::TemporalErrorNd`]), whose sums are taken chunk by chunk of a
+    /// fixed size on a pool, so that `dsm` differs from an unthreaded run's by round-off.
     pub fn with_threads(mut self, threads: Option<usize>) -> Result<Self, ControllerError> {
         let pool = match threads {
             None | Some(0) => None,

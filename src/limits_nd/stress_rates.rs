@@ -115,6 +115,69 @@ impl<const D: usize> StressRates<D> {
     }
 }
 
+/// Mutable access to a range of the rates, in their current form: what a threaded sweep
+/// writes through, one range per chunk.
+pub(super) enum StressRatesMut<'a, const D: usize> {
+    Sym(&'a mut [f64]),
+    Full(&'a mut [Tensor<D>]),
+}
+
+impl<const D: usize> StressRatesMut<'_, D> {
+    /// Stores `t` at entry `k` of the range; `false` (nothing stored) where the rates are
+    /// packed and `t` is not exactly symmetric: the caller unpacks them
+    /// ([`StressRates::unpack`]) and writes again.
+    #[inline]
+    pub fn set(&mut self, k: usize, t: Tensor<D>) -> bool {
+        match self {
+            StressRatesMut::Full(v) => {
+                v[k] = t;
+                true
+            }
+            StressRatesMut::Sym(v) if symmetric(&t) => {
+                let sym = StressRates::<D>::SYM;
+                let packed = &mut v[k * sym..(k + 1) * sym];
+                let mut i = 0;
+                for a in 0..D {
+                    for b in a..D {
+                        packed[i] = t[(a, b)];
+                        i += 1;
+                    }
+                }
+                true
+            }
+            StressRatesMut::Sym(_) => false,
+        }
+    }
+}
+
+impl<const D: usize> StressRates<D> {
+    /// Every rate, mutable.
+    pub fn as_mut(&mut self) -> StressRatesMut<'_, D> {
+        match self {
+            StressRates::Sym(v) => StressRatesMut::Sym(v),
+            StressRates::Full(v) => StressRatesMut::Full(v),
+        }
+    }
+
+    /// The rates in ranges of `chunk` particles (the last one shorter).
+    pub fn chunks_mut(&mut self, chunk: usize) -> Vec<StressRatesMut<'_, D>> {
+        match self {
+            StressRates::Sym(v) => v
+                .chunks_mut(chunk * Self::SYM)
+                .map(StressRatesMut::Sym)
+                .collect(),
+            StressRates::Full(v) => v.chunks_mut(chunk).map(StressRatesMut::Full).collect(),
+        }
+    }
+
+    /// Switches to full tensors (a no-op when they are already), keeping every value.
+    pub fn unpack(&mut self) {
+        if let StressRates::Sym(_) = self {
+            *self = StressRates::Full(self.to_full());
+        }
+    }
+}
+
 impl<const D: usize> From<StressRates<D>> for Vec<Tensor<D>> {
     fn from(rates: StressRates<D>) -> Self {
         match rates {
@@ -163,5 +226,27 @@ mod tests {
         let back: StressRates<3> = serde_json::from_value(json.clone()).unwrap();
         assert!(matches!(back, StressRates::Sym(_)));
         assert_eq!(json, serde_json::to_value(vec![s, s]).unwrap());
+    }
+
+    #[test]
+    fn chunks_write_in_place_and_refuse_an_asymmetric_rate_while_packed() {
+        let s = Tensor::<2>::from_fn(|a, b| 1.0 + (a + b) as f64);
+        let mut asym = s;
+        asym[(0, 1)] += 0.5;
+        let mut r = StressRates::<2>::default();
+        r.reset(5);
+        {
+            let mut chunks = r.chunks_mut(2);
+            assert_eq!(chunks.len(), 3);
+            assert!(chunks[1].set(1, s)); // particle 3
+            assert!(!chunks[2].set(0, asym)); // particle 4: refused, nothing written
+        }
+        assert!(matches!(r, StressRates::Sym(_)));
+        assert_eq!((r.get(3), r.get(4)), (s, Tensor::<2>::zeros()));
+        r.unpack();
+        assert!(matches!(r, StressRates::Full(_)));
+        assert_eq!(r.get(3), s);
+        assert!(r.chunks_mut(2)[2].set(0, asym));
+        assert_eq!(r.get(4), asym);
     }
 }

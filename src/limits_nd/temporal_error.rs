@@ -56,6 +56,13 @@
 //! next step it takes the first-step form. On the 10⁵-particle disks split in two,
 //! 1 054 of 102 936 particles ended on the other process over the whole run.
 //!
+//! **Threads.** On the controller's threads
+//! ([`Controller::with_threads`](crate::controller::Controller::with_threads)) the sweep
+//! takes the particles in chunks of 8 192 in parallel and adds the chunks' sums in chunk
+//! order: `dsm` is the same bit for bit on any number of threads, and differs from the
+//! sum over all particles in one chunk (no pool, or a grid-decomposed run, which stays
+//! on the calling thread) by round-off.
+//!
 //! **Replacing the state.** The history is the previous accepted step's rates: after the
 //! state is replaced outside the controller (`SolverNd::set_velocity_and_stress`), build
 //! a new limit (and controller), or the first estimate compares rates of two different
@@ -118,6 +125,8 @@ pub struct TemporalErrorNd<const D: usize> {
     slot_before: Vec<u32>,
     /// The last judged trial when its check was deferred.
     deferred: Option<DeferredTrial>,
+    /// The controller's threads, for the sweeps ([`sweep`]).
+    pool: Option<std::sync::Arc<rayon::ThreadPool>>,
 }
 
 impl<const D: usize> TemporalErrorNd<D> {
@@ -131,6 +140,7 @@ impl<const D: usize> TemporalErrorNd<D> {
             spare: None,
             slot_before: Vec::new(),
             deferred: None,
+            pool: None,
         }
     }
 
@@ -275,6 +285,7 @@ impl<const D: usize> TemporalErrorNd<D> {
                 ),
             })
         };
+        let pool = self.pool.as_deref();
         let pair = Pairing {
             moved,
             slot_before: &self.slot_before,
@@ -288,9 +299,10 @@ impl<const D: usize> TemporalErrorNd<D> {
             // No previous scales (the first step, or a history lost): the scales from a
             // pass over the fields alone, so that the sums are taken once, with this
             // step's own scales, as a second sweep would take them.
-            None => scales(sweep(before, after, dt, &pair, None, None).maxima),
+            None => scales(sweep(pool, before, after, dt, &pair, None, None).maxima),
         };
         let first = sweep(
+            pool,
             before,
             after,
             dt,
@@ -305,7 +317,7 @@ impl<const D: usize> TemporalErrorNd<D> {
             first
         } else {
             let w = weights(v_scale.max(prev_v), sigma_scale.max(prev_s));
-            sweep(before, after, dt, &pair, w, None)
+            sweep(pool, before, after, dt, &pair, w, None)
         };
         if let Some(out) = out {
             stamp(out, dt, v_scale, sigma_scale);
@@ -440,6 +452,10 @@ where
 
     fn memory_bytes(&self) -> usize {
         TemporalErrorNd::memory_bytes(self)
+    }
+
+    fn set_threads(&mut self, pool: Option<std::sync::Arc<rayon::ThreadPool>>) {
+        self.pool = pool;
     }
 
     fn save_state(&self) -> Option<serde_json::Value> {

@@ -2,9 +2,10 @@
 //! keeps, how trial particles find their committed state and history, and the sweep that
 //! forms the rates, the field-scale maxima and the sums of the scaled errors.
 
-use super::stress_rates::StressRates;
+use super::stress_rates::{StressRates, StressRatesMut};
 use crate::controller::deferral::{Deferral, Scheduled};
-use crate::nd::{Tensor, Vector, ViewNd};
+use crate::nd::{Tensor, Vector, ViewNd, ViewWeightsNd};
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 /// No partner (a particle absent from the other state).
@@ -69,6 +70,34 @@ impl<const D: usize> History<D> {
 }
 
 impl<const D: usize> History<D> {
+    /// Where a sweep writes the rates of every particle.
+    fn rates_out(&mut self) -> RatesOut<'_, D> {
+        RatesOut {
+            start: 0,
+            accel: &mut self.accel,
+            stress_rate: self.stress_rate.as_mut(),
+            ids: &mut self.ids,
+            needs_full: false,
+        }
+    }
+
+    /// Where the chunks of a threaded sweep write their rates (chunks of `chunk`
+    /// particles; the ids are written only on a grid-decomposed run, never threaded).
+    fn rates_out_chunks(&mut self, chunk: usize) -> Vec<RatesOut<'_, D>> {
+        self.accel
+            .chunks_mut(chunk)
+            .zip(self.stress_rate.chunks_mut(chunk))
+            .enumerate()
+            .map(|(k, (accel, stress_rate))| RatesOut {
+                start: k * chunk,
+                accel,
+                stress_rate,
+                ids: &mut [],
+                needs_full: false,
+            })
+            .collect()
+    }
+
     /// Bytes of its arrays (their capacities).
     pub fn heap_bytes(&self) -> usize {
         self.accel.capacity() * std::mem::size_of::<Vector<D>>()
@@ -121,12 +150,44 @@ pub(super) struct Sweep {
     pub finite: bool,
 }
 
-/// The rates `(a_p, σ̇_p)` of particle `p` at the start of a step from `view`'s nodal
+/// What a sweep reads of one state: the view's particle and nodal fields, apart from its
+/// process-split part (which is not shared between threads).
+#[derive(Clone, Copy)]
+pub(super) struct SweepFields<'a, const D: usize> {
+    v: &'a [Vector<D>],
+    sigma: &'a [Tensor<D>],
+    density: &'a [f64],
+    lame_lambda: &'a [f64],
+    lame_mu: &'a [f64],
+    weights: ViewWeightsNd<'a, D>,
+    node_velocity: &'a [Vector<D>],
+    node_acceleration: &'a [Vector<D>],
+}
+
+impl<'a, const D: usize> SweepFields<'a, D> {
+    /// The fields of `view`.
+    pub fn of(view: &ViewNd<'a, D>) -> Self {
+        Self {
+            v: view.v,
+            sigma: view.sigma,
+            density: view.density,
+            lame_lambda: view.lame_lambda,
+            lame_mu: view.lame_mu,
+            weights: view.weights,
+            node_velocity: view.node_velocity,
+            node_acceleration: view.node_acceleration,
+        }
+    }
+
+    /// Particles of the state.
+    pub fn n_particles(&self) -> usize {
+        self.v.len()
+    }
+}
+
+/// The rates `(a_p, σ̇_p)` of particle `p` at the start of a step from the state's nodal
 /// fields (eqs 21, 16, 24).
-pub(super) fn nodal_rates<const D: usize>(
-    view: &ViewNd<'_, D>,
-    p: usize,
-) -> (Vector<D>, Tensor<D>) {
+fn nodal_rates<const D: usize>(view: &SweepFields<'_, D>, p: usize) -> (Vector<D>, Tensor<D>) {
     let (a, l) = view.weights.with_row(p, |nodes, s, grad| {
         let mut a = Vector::<D>::zeros();
         let mut l = Tensor::<D>::zeros();
@@ -151,16 +212,137 @@ pub(super) struct Weights {
     pub abs: (f64, f64),
 }
 
+/// Where a sweep writes the rates of particles `start..start + accel.len()`.
+pub(super) struct RatesOut<'o, const D: usize> {
+    /// The first particle written.
+    pub start: usize,
+    pub accel: &'o mut [Vector<D>],
+    pub stress_rate: StressRatesMut<'o, D>,
+    /// The history ids, on a grid-decomposed run (`LEFT_OUT` marks an arrival).
+    pub ids: &'o mut [u64],
+    /// A stress rate was not symmetric while the rates were packed: the rates written are
+    /// incomplete (the caller unpacks them and sweeps again).
+    pub needs_full: bool,
+}
+
 /// One pass over the trial's particles: the maxima behind the field scales and, with
 /// `weights`, their rates (written into `out` when given) and the sums of `(le/w)²`
-/// (without, the sums are 0 and `finite` true: the fields' scales only).
+/// (without, the sums are 0 and `finite` true: the fields' scales only). On `pool` (and a
+/// trial that keeps its particles in their committed order) the particles are taken in
+/// chunks of [`SWEEP_CHUNK`] in parallel ([`sweep_chunked`]).
 pub(super) fn sweep<const D: usize>(
+    pool: Option<&rayon::ThreadPool>,
     before: &ViewNd<'_, D>,
     after: &ViewNd<'_, D>,
     dt: f64,
     pair: &Pairing<'_, D>,
     weights: Option<Weights>,
     mut out: Option<&mut History<D>>,
+) -> Sweep {
+    let (b, a) = (SweepFields::of(before), SweepFields::of(after));
+    loop {
+        let (found, needs_full) = match (pool, pair.moved) {
+            (Some(pool), None) if a.n_particles() > SWEEP_CHUNK => {
+                pool.install(|| sweep_chunked(&b, &a, dt, pair, weights, out.as_deref_mut()))
+            }
+            _ => {
+                let mut rates = out.as_deref_mut().map(History::rates_out);
+                let n = a.n_particles();
+                let found = sweep_range(&b, &a, dt, pair, weights, 0..n, rates.as_mut());
+                (found, rates.is_some_and(|r| r.needs_full))
+            }
+        };
+        match out.as_deref_mut() {
+            // A non-symmetric stress rate met while packed: unpack and sweep again.
+            Some(hist) if needs_full => hist.stress_rate.unpack(),
+            _ => return found,
+        }
+    }
+}
+
+/// The particles of a sweep in chunks of [`SWEEP_CHUNK`] on the current thread pool; the
+/// chunks' sums are added in chunk order, so the result does not depend on the number of
+/// threads (it differs from the one-chunk sum of [`sweep_range`] by round-off). Returns
+/// whether a chunk met a non-symmetric stress rate while packed.
+fn sweep_chunked<const D: usize>(
+    before: &SweepFields<'_, D>,
+    after: &SweepFields<'_, D>,
+    dt: f64,
+    pair: &Pairing<'_, D>,
+    weights: Option<Weights>,
+    out: Option<&mut History<D>>,
+) -> (Sweep, bool) {
+    let n = after.n_particles();
+    let ranges: Vec<_> = (0..n.div_ceil(SWEEP_CHUNK))
+        .map(|k| k * SWEEP_CHUNK..((k + 1) * SWEEP_CHUNK).min(n))
+        .collect();
+    let parts: Vec<(Sweep, bool)> = match out {
+        Some(hist) => hist
+            .rates_out_chunks(SWEEP_CHUNK)
+            .into_par_iter()
+            .zip(ranges)
+            .map(|(mut rates, r)| {
+                let found = sweep_range(before, after, dt, pair, weights, r, Some(&mut rates));
+                (found, rates.needs_full)
+            })
+            .collect(),
+        None => ranges
+            .into_par_iter()
+            .map(|r| {
+                (
+                    sweep_range(before, after, dt, pair, weights, r, None),
+                    false,
+                )
+            })
+            .collect(),
+    };
+    let mut total = Sweep::empty();
+    let mut needs_full = false;
+    for (part, full) in parts {
+        total.merge(&part);
+        needs_full |= full;
+    }
+    (total, needs_full)
+}
+
+/// Particles per chunk of a threaded sweep: fixed, so that the sums' order depends on the
+/// particle count only.
+pub(super) const SWEEP_CHUNK: usize = 8192;
+
+impl Sweep {
+    /// A sweep over no particles.
+    fn empty() -> Self {
+        Sweep {
+            sums: [0.0; 2],
+            count: 0,
+            maxima: [0.0; 4],
+            finite: true,
+        }
+    }
+
+    /// Takes in a sweep over the particles that follow.
+    fn merge(&mut self, other: &Sweep) {
+        self.sums[0] += other.sums[0];
+        self.sums[1] += other.sums[1];
+        self.count += other.count;
+        for (m, o) in self.maxima.iter_mut().zip(other.maxima) {
+            *m = m.max(o);
+        }
+        self.finite &= other.finite;
+    }
+}
+
+/// [`sweep`] over the trial particles `range`, their rates written into `out` (which starts
+/// at `range.start`).
+#[allow(clippy::too_many_arguments)]
+fn sweep_range<const D: usize>(
+    before: &SweepFields<'_, D>,
+    after: &SweepFields<'_, D>,
+    dt: f64,
+    pair: &Pairing<'_, D>,
+    weights: Option<Weights>,
+    range: std::ops::Range<usize>,
+    mut out: Option<&mut RatesOut<'_, D>>,
 ) -> Sweep {
     let inv_dt = 1.0 / dt;
     // `(le/w)²` with `le² = (dt²/2)² |d²u/dt²|²`; 0 when `le = 0`, whatever `w`.
@@ -174,13 +356,8 @@ pub(super) fn sweep<const D: usize>(
             r
         }
     };
-    let mut acc = Sweep {
-        sums: [0.0; 2],
-        count: 0,
-        maxima: [0.0; 4],
-        finite: true,
-    };
-    for p in 0..after.n_particles() {
+    let mut acc = Sweep::empty();
+    for p in range {
         let q = match pair.moved {
             None => p,
             Some(ids) => match pair.slot_before.get(ids[p] as usize) {
@@ -189,7 +366,7 @@ pub(super) fn sweep<const D: usize>(
                     // Arrived in this trial: left out (module docs), and without rates
                     // for the next step.
                     if let Some(out) = out.as_deref_mut() {
-                        out.ids[p] = LEFT_OUT;
+                        out.ids[p - out.start] = LEFT_OUT;
                     }
                     continue;
                 }
@@ -209,8 +386,8 @@ pub(super) fn sweep<const D: usize>(
             let stress_rate = (s1 - s0) * inv_dt;
             acc.finite &= (accel.norm_squared() + stress_rate.norm_squared()).is_finite();
             if let Some(out) = out.as_deref_mut() {
-                out.accel[p] = accel;
-                out.stress_rate.set(p, stress_rate);
+                out.accel[p - out.start] = accel;
+                out.needs_full |= !out.stress_rate.set(p - out.start, stress_rate);
             }
             // The history of committed particle `q`, unless it was left out.
             let hist = pair.history.filter(|hist| match pair.before_ids {
