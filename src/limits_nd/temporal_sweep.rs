@@ -108,27 +108,58 @@ impl<const D: usize> History<D> {
 
 /// Writes the rates `(v^{n+1} − v^n)/dt`, `(σ^{n+1} − σ^n)/dt` of a step whose trial keeps
 /// its particles in their committed order into `out`, with the same operations as
-/// [`sweep`] (so the same values, bit for bit), and the trial's run-wide ids.
+/// [`sweep`] (so the same values, bit for bit), and the trial's run-wide ids. On `pool`
+/// in chunks of [`SWEEP_CHUNK`] particles in parallel (the same values: each is its own).
 pub(super) fn rates_into<const D: usize>(
+    pool: Option<&rayon::ThreadPool>,
     before: &ViewNd<'_, D>,
     after: &ViewNd<'_, D>,
     dt: f64,
     out: &mut History<D>,
 ) {
-    let inv_dt = 1.0 / dt;
     let n = after.n_particles().min(before.n_particles());
     out.accel.clear();
-    out.accel
-        .extend((0..n).map(|p| (after.v[p] - before.v[p]) * inv_dt));
+    out.accel.resize(n, Vector::<D>::zeros());
     out.stress_rate.reset(n);
-    for p in 0..n {
-        out.stress_rate
-            .set(p, (after.sigma[p] - before.sigma[p]) * inv_dt);
+    let (b, a) = (SweepFields::of(before), SweepFields::of(after));
+    loop {
+        let needs_full = match pool {
+            Some(pool) if n > SWEEP_CHUNK => pool.install(|| {
+                out.rates_out_chunks(SWEEP_CHUNK)
+                    .into_par_iter()
+                    .map(|mut r| rates_range(&b, &a, dt, &mut r))
+                    .reduce(|| false, |x, y| x | y)
+            }),
+            _ => rates_range(&b, &a, dt, &mut out.rates_out()),
+        };
+        if !needs_full {
+            break;
+        }
+        out.stress_rate.unpack();
     }
     out.ids.clear();
     if let Some(split) = after.split {
         out.ids.extend_from_slice(split.particle_id);
     }
+}
+
+/// [`rates_into`] for the particles `out` covers; whether a stress rate could not be
+/// stored packed ([`RatesOut::needs_full`]).
+fn rates_range<const D: usize>(
+    before: &SweepFields<'_, D>,
+    after: &SweepFields<'_, D>,
+    dt: f64,
+    out: &mut RatesOut<'_, D>,
+) -> bool {
+    let inv_dt = 1.0 / dt;
+    for k in 0..out.accel.len() {
+        let p = out.start + k;
+        out.accel[k] = (after.v[p] - before.v[p]) * inv_dt;
+        out.needs_full |= !out
+            .stress_rate
+            .set(k, (after.sigma[p] - before.sigma[p]) * inv_dt);
+    }
+    out.needs_full
 }
 
 /// Stamps a history with the step it was formed over and the step's field scales.

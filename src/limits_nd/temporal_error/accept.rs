@@ -66,7 +66,7 @@ impl<const D: usize> TemporalErrorNd<D> {
             .take()
             .or_else(|| self.spare.take())
             .unwrap_or_default();
-        rates_into(before, after, dt, &mut h);
+        rates_into(self.pool.as_deref(), before, after, dt, &mut h);
         stamp(&mut h, dt, e.v_scale, e.sigma_scale);
         h.defer = Deferral::after_check(previous, e.dsm, &self.config);
         self.history = Some(h);
