@@ -30,7 +30,8 @@ use std::collections::VecDeque;
 /// Name in logs: `"growth"`.
 pub const GROWTH: &str = "growth";
 
-/// The d-dimensional growth monitor (module docs).
+/// The d-dimensional growth monitor: the energy it watches and when it rejects are in the
+/// [module docs](self).
 #[derive(Clone, Debug)]
 pub struct GrowthNd<const D: usize> {
     gravity: Vector<D>,

@@ -94,7 +94,8 @@ use std::rc::Rc;
 /// Name in logs: `"stability"`.
 pub const STABILITY: &str = "stability";
 
-/// The tracked eq 56 limit in d dimensions (module docs).
+/// The tracked eq 56 limit in d dimensions: how `λmax` is tracked, refreshed and checked
+/// is in the [module docs](self).
 ///
 /// # Memory
 ///
