@@ -44,6 +44,25 @@ pub(super) struct NodalSums<'a, const D: usize> {
 }
 
 impl<'a, const D: usize> NodalSums<'a, D> {
+    /// [`Self::zeroed`] on the threads of `pool`, where the arrays already have their
+    /// length (a run's steps after the first).
+    pub fn zeroed_on(self, pool: &rayon::ThreadPool, n_nodes: usize) -> Self {
+        use rayon::prelude::*;
+        if self.mass.len() != n_nodes
+            || self.momentum.len() != n_nodes
+            || self.force.len() != n_nodes
+        {
+            return self.zeroed(n_nodes);
+        }
+        pool.install(|| {
+            self.mass.par_iter_mut().for_each(|m| *m = 0.0);
+            for v in [&mut *self.momentum, &mut *self.force] {
+                v.par_iter_mut().for_each(|x| *x = Vector::<D>::zeros());
+            }
+        });
+        self
+    }
+
     /// The sums set to zero on `n_nodes` nodes (their storage reused).
     pub fn zeroed(self, n_nodes: usize) -> Self {
         self.mass.clear();

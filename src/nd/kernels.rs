@@ -189,21 +189,62 @@ pub(super) fn finish_nodal<const D: usize>(
     threshold: f64,
     complete: &NodalCompletion<'_, D>,
 ) {
+    finish_nodal_on(
+        None,
+        (node_mass, node_v, node_a, active),
+        gravity,
+        constrained,
+        threshold,
+        complete,
+    );
+}
+
+/// [`finish_nodal`], on `pool` in ranges of nodes where given (each node's values are its
+/// own: the same bits on any number of threads).
+pub(super) fn finish_nodal_on<const D: usize>(
+    pool: Option<&rayon::ThreadPool>,
+    (node_mass, node_v, node_a, active): (
+        &mut Vec<f64>,
+        &mut Vec<Vector<D>>,
+        &mut Vec<Vector<D>>,
+        &mut Vec<bool>,
+    ),
+    gravity: &Vector<D>,
+    constrained: &[bool],
+    threshold: f64,
+    complete: &NodalCompletion<'_, D>,
+) {
+    use rayon::prelude::*;
     let nn = node_mass.len();
     // The other processes' sums, in a split run.
     complete(node_mass, node_v, node_a);
     active.clear();
     active.resize(nn, false);
-    for i in 0..nn {
-        let m = node_mass[i];
-        if m > threshold && !constrained[i] {
-            active[i] = true;
-            node_v[i] /= m;
-            node_a[i] = node_a[i] / m + gravity;
-        } else {
-            node_v[i] = Vector::<D>::zeros();
-            node_a[i] = Vector::<D>::zeros();
-        }
+    let finish =
+        |start: usize, m: &[f64], v: &mut [Vector<D>], a: &mut [Vector<D>], act: &mut [bool]| {
+            for k in 0..m.len() {
+                if m[k] > threshold && !constrained[start + k] {
+                    act[k] = true;
+                    v[k] /= m[k];
+                    a[k] = a[k] / m[k] + gravity;
+                } else {
+                    v[k] = Vector::<D>::zeros();
+                    a[k] = Vector::<D>::zeros();
+                }
+            }
+        };
+    match pool {
+        Some(pool) => pool.install(|| {
+            const NODES: usize = 8192;
+            node_mass
+                .par_chunks(NODES)
+                .zip(node_v.par_chunks_mut(NODES))
+                .zip(node_a.par_chunks_mut(NODES))
+                .zip(active.par_chunks_mut(NODES))
+                .enumerate()
+                .for_each(|(k, (((m, v), a), act))| finish(k * NODES, m, v, a, act));
+        }),
+        None => finish(0, node_mass, node_v, node_a, active),
     }
 }
 

@@ -145,7 +145,8 @@ impl<const D: usize> SolverNd<D> {
         let complete = |m: &mut Vec<f64>, v: &mut Vec<Vector<D>>, a: &mut Vec<Vector<D>>| {
             self.split.complete_nodal(m, v, a)
         };
-        kernels::finish_nodal(
+        kernels::finish_nodal_on(
+            self.threads.as_deref(),
             (node_mass, node_v, node_a, active),
             &self.gravity,
             &self.constrained,
