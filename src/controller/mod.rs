@@ -159,9 +159,12 @@ where
     /// decision is the same, bit for bit, on any number of threads (`Some(1)` included). The
     /// limits that use it: the d-dimensional stability limit's layout guard
     /// ([`crate::limits_nd::StabilityNd`]), whose maxima do not depend on the order either,
-    /// so it is also bit for bit the unthreaded run; and the temporal error's sweeps
-    /// ([`crate::limits_nd::TemporalErrorNd`]), whose sums are taken chunk by chunk of a
-    /// fixed size on a pool, so that `dsm` differs from an unthreaded run's by round-off.
+    /// so it is also bit for bit the unthreaded run; the stability limit's Lanczos products
+    /// on layouts of 16 384 particles or more
+    /// ([`crate::limits_nd::stiffness::apply_scaled_on`]) and the temporal error's sweeps
+    /// ([`crate::limits_nd::TemporalErrorNd`]), whose sums are taken in ranges of a fixed
+    /// size on a pool, so that `λmax` and `dsm` differ from an unthreaded run's by
+    /// round-off.
     pub fn with_threads(mut self, threads: Option<usize>) -> Result<Self, ControllerError> {
         let pool = match threads {
             None | Some(0) => None,

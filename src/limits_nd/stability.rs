@@ -82,7 +82,7 @@ mod guard_scan;
 use super::bound_tracking::BoundTracking;
 use super::stability_config::StabilityNdConfig;
 use super::start::checkerboard_start;
-use super::stiffness::{diagonal_argmax, lanczos_reduced, NodalSpace};
+use super::stiffness::{diagonal_argmax, lanczos_on, NodalSpace};
 use super::transfer::{apic_gain, TransferNd};
 use crate::dimension::{Dim, Dimension};
 use crate::limit::{LimitError, Metrics, Proposal, StepLimit};
@@ -225,7 +225,8 @@ impl<const D: usize> StabilityNd<D> {
                 }
             }
         }
-        let r = lanczos_reduced(
+        let r = lanczos_on(
+            self.pool.as_deref(),
             view,
             &start,
             self.config.tol,

@@ -15,7 +15,9 @@
 //! particles' weights (the cost of about one particle → grid pass); [`lanczos`] finds
 //! `λmax(A)` from a few such products; [`dense`] assembles `A` for small problems.
 
-use crate::nd::{Tensor, Vector, ViewNd};
+use crate::nd::ViewNd;
+
+mod blocked;
 use crate::reduce::{Reduce, SingleProcess};
 use crate::stability::lambda_max::{dot, top_ritz};
 use faer::Mat;
@@ -36,10 +38,23 @@ pub fn apply<const D: usize>(view: &ViewNd<'_, D>, u: &[f64], y: &mut [f64]) {
     apply_scaled(view, &inverse_sqrt_mass(view), u, y);
 }
 
-/// [`apply`] with `M^{-1/2}` given ([`inverse_sqrt_mass`]). A particle's
-/// `(V_p λ_t, V_p μ_t)`, `V_p = det(F_p) V⁰_p`, is formed in the product, as its weight row
-/// is: repeated products keep no per-particle array.
+/// [`apply`] with `M^{-1/2}` given ([`inverse_sqrt_mass`]), on the calling thread
+/// ([`blocked::add_range`] over every particle).
 pub fn apply_scaled<const D: usize>(
+    view: &ViewNd<'_, D>,
+    inv_sqrt_m: &[f64],
+    u: &[f64],
+    y: &mut [f64],
+) {
+    apply_scaled_on(None, view, inv_sqrt_m, u, y);
+}
+
+/// [`apply_scaled`] on `pool` where given and the layout has at least
+/// [`blocked::MIN_PARTICLES`] particles: the particles in a fixed number of ranges summed
+/// apart, then added in range order ([`blocked`]): the same bits on any number of threads,
+/// round-off away from the one-range sum.
+pub fn apply_scaled_on<const D: usize>(
+    pool: Option<&rayon::ThreadPool>,
     view: &ViewNd<'_, D>,
     inv_sqrt_m: &[f64],
     u: &[f64],
@@ -47,37 +62,15 @@ pub fn apply_scaled<const D: usize>(
 ) {
     let nn = view.n_nodes();
     debug_assert!(u.len() == nn * D && y.len() == nn * D && inv_sqrt_m.len() == nn);
-    y.fill(0.0);
-    let w = &view.weights;
-    for p in 0..view.n_particles() {
-        let vol = view.volume(p);
-        let (vol_lambda, vol_mu) = (vol * view.lame_lambda[p], vol * view.lame_mu[p]);
-        w.with_row(p, |nodes, _, grads| {
-            let mut l = Tensor::<D>::zeros();
-            for (&i, g) in nodes.iter().zip(grads) {
-                let i = i as usize;
-                let s = inv_sqrt_m[i];
-                if s == 0.0 {
-                    continue;
-                }
-                let ui = Vector::<D>::from_fn(|a, _| u[i * D + a] * s);
-                l += ui * g.transpose();
-            }
-            let eps = (l + l.transpose()) * 0.5;
-            let stress =
-                Tensor::<D>::identity() * (vol_lambda * eps.trace()) + eps * (2.0 * vol_mu);
-            for (&i, g) in nodes.iter().zip(grads) {
-                let i = i as usize;
-                let s = inv_sqrt_m[i];
-                if s == 0.0 {
-                    continue;
-                }
-                let f = stress * g;
-                for a in 0..D {
-                    y[i * D + a] += f[a] * s;
-                }
-            }
-        });
+    match pool {
+        Some(pool) if view.n_particles() >= blocked::MIN_PARTICLES => {
+            blocked::apply_blocked(pool, view, inv_sqrt_m, u, y)
+        }
+        _ => {
+            y.fill(0.0);
+            let fields = blocked::ProductFields::of(view);
+            blocked::add_range(&fields, inv_sqrt_m, u, 0..view.n_particles(), y);
+        }
     }
 }
 
@@ -344,6 +337,19 @@ pub fn lanczos_reduced<const D: usize>(
     max_iter: usize,
     reduce: &dyn Reduce,
 ) -> LanczosResult {
+    lanczos_on(None, view, start, tol, max_iter, reduce)
+}
+
+/// [`lanczos_reduced`] with its products on `pool` ([`apply_scaled_on`]): the same result
+/// bit for bit on any number of the pool's threads.
+pub fn lanczos_on<const D: usize>(
+    pool: Option<&rayon::ThreadPool>,
+    view: &ViewNd<'_, D>,
+    start: &[f64],
+    tol: f64,
+    max_iter: usize,
+    reduce: &dyn Reduce,
+) -> LanczosResult {
     let n = start.len();
     let mut basis: Vec<Vec<f64>> = Vec::new();
     let mut alpha: Vec<f64> = Vec::new();
@@ -393,7 +399,7 @@ pub fn lanczos_reduced<const D: usize>(
         for (&c, &v) in comps.iter().zip(&qc) {
             qf[c] = v;
         }
-        apply_scaled(view, &inv_sqrt_m, &qf, &mut wf);
+        apply_scaled_on(pool, view, &inv_sqrt_m, &qf, &mut wf);
         space.complete(&mut wf);
         let mut w = gather(&wf);
         let a = dots(&[&qc], &w)[0];
