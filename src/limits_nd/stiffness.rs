@@ -49,8 +49,9 @@ pub fn apply_scaled<const D: usize>(
     apply_scaled_on(None, view, inv_sqrt_m, u, y);
 }
 
-/// [`apply_scaled`] on `pool` where given and the layout has at least
-/// [`blocked::MIN_PARTICLES`] particles: the particles in a fixed number of ranges summed
+/// [`apply_scaled`] on `pool` where given and the layout is large and dense enough
+/// ([`blocked::is_blocked`]: at least 16 384 particles and at most four nodal entries of
+/// the ranges' vectors per particle): the particles in a fixed number of ranges summed
 /// apart, then added in range order ([`blocked`]): the same bits on any number of threads,
 /// round-off away from the one-range sum.
 pub fn apply_scaled_on<const D: usize>(
@@ -60,11 +61,23 @@ pub fn apply_scaled_on<const D: usize>(
     u: &[f64],
     y: &mut [f64],
 ) {
+    apply_scaled_with(pool, view, inv_sqrt_m, u, y, &mut Vec::new());
+}
+
+/// [`apply_scaled_on`] keeping the ranges' vectors in `parts` between products.
+fn apply_scaled_with<const D: usize>(
+    pool: Option<&rayon::ThreadPool>,
+    view: &ViewNd<'_, D>,
+    inv_sqrt_m: &[f64],
+    u: &[f64],
+    y: &mut [f64],
+    parts: &mut Vec<Vec<f64>>,
+) {
     let nn = view.n_nodes();
     debug_assert!(u.len() == nn * D && y.len() == nn * D && inv_sqrt_m.len() == nn);
     match pool {
-        Some(pool) if view.n_particles() >= blocked::MIN_PARTICLES => {
-            blocked::apply_blocked(pool, view, inv_sqrt_m, u, y)
+        Some(pool) if blocked::is_blocked(view.n_particles(), nn) => {
+            blocked::apply_blocked(pool, view, inv_sqrt_m, u, y, parts)
         }
         _ => {
             y.fill(0.0);
@@ -391,6 +404,8 @@ pub fn lanczos_on<const D: usize>(
     let mut qf = vec![0.0; n];
     let mut wf = vec![0.0; n];
     let inv_sqrt_m = inverse_sqrt_mass(view);
+    // The blocked products' range vectors, kept between products.
+    let mut parts = Vec::new();
     // (Ritz value, residual bound, coordinates in the basis) of the latest iteration.
     let mut best: (f64, f64, Vec<f64>) = (0.0, f64::INFINITY, vec![1.0]);
     // Consecutive iterations in which the Ritz value moved by less than `tol·λ/10`.
@@ -399,7 +414,7 @@ pub fn lanczos_on<const D: usize>(
         for (&c, &v) in comps.iter().zip(&qc) {
             qf[c] = v;
         }
-        apply_scaled_on(pool, view, &inv_sqrt_m, &qf, &mut wf);
+        apply_scaled_with(pool, view, &inv_sqrt_m, &qf, &mut wf, &mut parts);
         space.complete(&mut wf);
         let mut w = gather(&wf);
         let a = dots(&[&qc], &w)[0];

@@ -15,6 +15,15 @@ pub(super) const BLOCKS: usize = 8;
 /// thread: a small layout's product costs less than the nodal vectors' sum).
 pub(super) const MIN_PARTICLES: usize = 16_384;
 
+/// Whether a product over `particles` particles and `nodes` nodes is blocked: enough
+/// particles, and no more nodal entries in the ranges' vectors than four per particle —
+/// bodies in a large, mostly empty box (the 10⁵-particle colliding spheres: 2.6 nodes per
+/// particle) would spend more on clearing and adding the ranges' vectors than the threads
+/// save. Depends on the layout only, never on the number of threads.
+pub(super) fn is_blocked(particles: usize, nodes: usize) -> bool {
+    particles >= MIN_PARTICLES && nodes * BLOCKS <= 4 * particles
+}
+
 /// What a product reads of the view: its particle fields and weights (the view's
 /// process-split part is not shared between threads).
 #[derive(Clone, Copy)]
@@ -39,32 +48,33 @@ impl<'a, const D: usize> ProductFields<'a, D> {
     }
 }
 
-/// `y = A u` on `pool` (module docs); `y` has the length of `u`.
+/// `y = A u` on `pool` (module docs); `y` has the length of `u`. `parts` holds the
+/// ranges' vectors between products (resized and cleared here).
 pub(super) fn apply_blocked<const D: usize>(
     pool: &rayon::ThreadPool,
     view: &ViewNd<'_, D>,
     inv_sqrt_m: &[f64],
     u: &[f64],
     y: &mut [f64],
+    parts: &mut Vec<Vec<f64>>,
 ) {
     let fields = ProductFields::of(view);
     let n = view.n_particles();
     let per_block = n.div_ceil(BLOCKS);
     pool.install(|| {
-        let parts: Vec<Vec<f64>> = (0..BLOCKS)
-            .into_par_iter()
-            .map(|b| {
-                let mut part = vec![0.0; y.len()];
-                let range = (b * per_block).min(n)..((b + 1) * per_block).min(n);
-                add_range(&fields, inv_sqrt_m, u, range, &mut part);
-                part
-            })
-            .collect();
+        parts.resize_with(BLOCKS, Vec::new);
+        parts.par_iter_mut().enumerate().for_each(|(b, part)| {
+            part.clear();
+            part.resize(y.len(), 0.0);
+            let range = (b * per_block).min(n)..((b + 1) * per_block).min(n);
+            add_range(&fields, inv_sqrt_m, u, range, part);
+        });
+        let parts = &*parts;
         y.par_chunks_mut(4096).enumerate().for_each(|(k, chunk)| {
             let start = k * 4096;
             for (j, out) in chunk.iter_mut().enumerate() {
                 let mut sum = 0.0;
-                for part in &parts {
+                for part in parts {
                     sum += part[start + j];
                 }
                 *out = sum;
@@ -118,7 +128,7 @@ pub(super) fn add_range<const D: usize>(
 #[cfg(test)]
 mod tests {
     use super::super::{apply_scaled, apply_scaled_on, inverse_sqrt_mass};
-    use super::MIN_PARTICLES;
+    use super::is_blocked;
     use crate::nd::{GridNd, MaterialNd, ParticlesNd, ShapeNd, SolverNd, Vector};
     use crate::{Boundary, Stepper};
 
@@ -140,7 +150,7 @@ mod tests {
             .expect("a valid set-up");
         s.try_step(1e-4).and_then(|_| s.accept()).expect("a step");
         let view = s.view();
-        assert!(view.n_particles() >= MIN_PARTICLES);
+        assert!(is_blocked(view.n_particles(), view.n_nodes()));
         let inv = inverse_sqrt_mass(&view);
         let u: Vec<f64> = (0..inv.len() * 2)
             .map(|k| ((k * 7919) % 1000) as f64 / 1000.0 - 0.5)
