@@ -9,6 +9,7 @@
 //!
 //! With `--summary` each step also sums the totals a controller reads from it
 //! ([`Stepper::provide_summary`]: energies, element bound, speed-of-sound step).
+//!
 //! With THREADS the solver steps on that many threads ([`SolverNd::set_threads`]; 0: the
 //! calling thread, the default); the rate is then also given per wall-clock second, which
 //! is the figure that counts for threads (CPU time adds up over them).

@@ -6,7 +6,6 @@
 //! three-operand arithmetic and single-instruction rounding, but no fused multiply–add:
 //! Rust never contracts `a * b + c` on its own, so every value is bit for bit the
 //! baseline build's and results do not depend on the machine.
-
 //!
 //! Setting the environment variable `MPM_DT_BASELINE=1` makes a process run the baseline
 //! builds only (to compare the two builds' speed, or to rule them out when chasing a

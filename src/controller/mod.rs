@@ -162,8 +162,8 @@ where
     /// so it is also bit for bit the unthreaded run; the stability limit's Lanczos products
     /// on large, dense layouts
     /// ([`crate::limits_nd::stiffness::apply_scaled_on`]) and the temporal error's sweeps
-    /// ([`crate::limits_nd::TemporalErrorNd`]), whose sums are taken in ranges of a fixed
-    /// size on a pool, so that `λmax` and `dsm` differ from an unthreaded run's by
+    /// ([`crate::limits_nd::TemporalErrorNd`]), whose sums are taken over a fixed split of
+    /// the particles on a pool, so that `λmax` and `dsm` differ from an unthreaded run's by
     /// round-off.
     pub fn with_threads(mut self, threads: Option<usize>) -> Result<Self, ControllerError> {
         let pool = match threads {

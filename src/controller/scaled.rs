@@ -78,6 +78,14 @@ where
         self.inner.memory_bytes()
     }
 
+    fn set_reduce(&mut self, reduce: std::rc::Rc<dyn crate::reduce::Reduce>) {
+        self.inner.set_reduce(reduce);
+    }
+
+    fn set_threads(&mut self, pool: Option<std::sync::Arc<rayon::ThreadPool>>) {
+        self.inner.set_threads(pool);
+    }
+
     fn scale_safety(&mut self, factor: f64) {
         if factor.is_finite() && factor > 0.0 {
             self.factor *= factor;

@@ -50,8 +50,8 @@ pub fn apply_scaled<const D: usize>(
 }
 
 /// [`apply_scaled`] on `pool` where given and the layout is large and dense enough
-/// ([`blocked::is_blocked`]: at least 16 384 particles and at most four nodal entries of
-/// the ranges' vectors per particle): the particles in a fixed number of ranges summed
+/// ([`blocked::is_blocked`]: at least 16 384 particles and at most half a node per
+/// particle): the particles in a fixed number of ranges summed
 /// apart, then added in range order ([`blocked`]): the same bits on any number of threads,
 /// round-off away from the one-range sum.
 pub fn apply_scaled_on<const D: usize>(

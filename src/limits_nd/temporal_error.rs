@@ -99,8 +99,9 @@ struct Estimate {
 }
 
 /// The temporal-error limit in `d` dimensions: proposes nothing itself (the controller's
-/// filter does, from the `dsm` it reports) and judges each trial by `dsm ≤ 1` (the estimate,
-/// its weights and its deferral are in the [module docs](self)). The per-particle arrays are allocated once per run and reused.
+/// filter does, from the `dsm` it reports) and judges each trial by `dsm ≤ 1` (the
+/// estimate, its weights and its deferral are in the [module docs](self)). The
+/// per-particle arrays are allocated once per run and reused.
 ///
 /// # Memory
 ///

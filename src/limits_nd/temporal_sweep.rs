@@ -259,8 +259,8 @@ pub(super) struct RatesOut<'o, const D: usize> {
 /// One pass over the trial's particles: the maxima behind the field scales and, with
 /// `weights`, their rates (written into `out` when given) and the sums of `(le/w)²`
 /// (without, the sums are 0 and `finite` true: the fields' scales only). On `pool` (and a
-/// trial that keeps its particles in their committed order) the particles are taken in
-/// chunks of [`SWEEP_CHUNK`] in parallel ([`sweep_chunked`]).
+/// run not decomposed over processes) the particles are taken in chunks of
+/// [`SWEEP_CHUNK`] in parallel ([`sweep_chunked`]).
 pub(super) fn sweep<const D: usize>(
     pool: Option<&rayon::ThreadPool>,
     before: &ViewNd<'_, D>,
@@ -272,8 +272,10 @@ pub(super) fn sweep<const D: usize>(
 ) -> Sweep {
     let (b, a) = (SweepFields::of(before), SweepFields::of(after));
     loop {
+        // A grid-decomposed run (`before_ids`) sums in one chunk, on every step alike.
+        let split = pair.before_ids.is_some();
         let (found, needs_full) = match (pool, pair.moved) {
-            (Some(pool), None) if a.n_particles() > SWEEP_CHUNK => {
+            (Some(pool), None) if !split && a.n_particles() > SWEEP_CHUNK => {
                 pool.install(|| sweep_chunked(&b, &a, dt, pair, weights, out.as_deref_mut()))
             }
             _ => {

@@ -33,6 +33,9 @@ use super::kernels::{axis_factors_as, update_particle, Committed, ParticleFault,
 use super::shape::AxisShape;
 use super::{GridNd, SummaryNd, Tensor, Vector};
 use rayon::prelude::*;
+use sort::sort_by_slab;
+
+mod sort;
 
 /// Particles per chunk of the grid → particle phase.
 pub(super) const CHUNK: usize = 4096;
@@ -306,83 +309,6 @@ fn update_chunk<const D: usize, S: AxisShape>(
     }
     totals
 }
-
-/// Phase 2: the particle indices sorted by slab, stable (a counting sort), on the current
-/// pool: each chunk of [`CHUNK`] particles counts its slabs, the counts give each chunk
-/// where its particles of each slab go (after the earlier chunks' and slabs'), and the
-/// chunks place their particles in parallel. The order is the serial counting sort's.
-fn sort_by_slab(scratch: &mut ThreadScratch, count: usize) {
-    let counts: Vec<Vec<usize>> = scratch
-        .slab_of
-        .par_chunks(CHUNK)
-        .map(|chunk| {
-            let mut c = vec![0usize; count];
-            for &s in chunk {
-                c[s as usize] += 1;
-            }
-            c
-        })
-        .collect();
-    let starts = &mut scratch.starts;
-    starts.clear();
-    starts.resize(count + 1, 0);
-    for c in &counts {
-        for (s, &n) in c.iter().enumerate() {
-            starts[s + 1] += n;
-        }
-    }
-    for s in 0..count {
-        starts[s + 1] += starts[s];
-    }
-    // Where chunk `k` puts its first particle of each slab.
-    let mut next = starts[..count].to_vec();
-    let firsts: Vec<Vec<usize>> = counts
-        .iter()
-        .map(|c| {
-            let first = next.clone();
-            for (s, &n) in c.iter().enumerate() {
-                next[s] += n;
-            }
-            first
-        })
-        .collect();
-    scratch.order.resize(scratch.slab_of.len(), 0);
-    let order = SharedOrder(scratch.order.as_mut_ptr(), scratch.order.len());
-    scratch
-        .slab_of
-        .par_chunks(CHUNK)
-        .zip(firsts)
-        .enumerate()
-        .for_each(|(k, (chunk, mut next))| {
-            for (j, &s) in chunk.iter().enumerate() {
-                let at = next[s as usize];
-                next[s as usize] += 1;
-                // SAFETY: the positions of different chunks are disjoint (each owns its
-                // own range within every slab).
-                unsafe { order.write(at, (k * CHUNK + j) as u32) };
-            }
-        });
-}
-
-/// The particle order of phase 2, written by the chunks at disjoint positions.
-#[derive(Clone, Copy)]
-struct SharedOrder(*mut u32, usize);
-
-impl SharedOrder {
-    /// Writes `value` at position `at` (checked against the length).
-    ///
-    /// # Safety
-    /// No other thread may read or write position `at` meanwhile.
-    unsafe fn write(&self, at: usize, value: u32) {
-        assert!(at < self.1, "slab position {at} outside the order");
-        // SAFETY: `at` is in bounds (checked); the caller keeps it to itself.
-        unsafe { *self.0.add(at) = value };
-    }
-}
-
-// SAFETY: the chunks that share it write disjoint positions (`sort_by_slab`).
-unsafe impl Send for SharedOrder {}
-unsafe impl Sync for SharedOrder {}
 
 /// Phase 3: every slab's particles added to the nodes, the slabs of one colour in
 /// parallel, colour after colour. Returns the first particle whose stencil could not be formed and, with

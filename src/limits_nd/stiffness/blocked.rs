@@ -3,6 +3,11 @@
 //! vectors then added in range order. The ranges depend on the particle count only, so
 //! the product is the same bit for bit on any number of threads; it differs from the
 //! one-range sum of [`super::apply_scaled`] by round-off (the order of the nodal sums).
+//!
+//! **Memory:** the ranges' vectors, `8·D` numbers per node, are held through one Lanczos
+//! run and freed after it (not in [`crate::limit::StepLimit::memory_bytes`], which counts
+//! what a limit keeps between steps): 32 B per particle on a 2D wave of 2 particles per
+//! cell and axis, 24 B in 3D, at most `32·D` B where a layout is still blocked.
 
 use crate::nd::{det, Tensor, Vector, ViewNd, ViewWeightsNd};
 use rayon::prelude::*;
@@ -16,10 +21,11 @@ pub(super) const BLOCKS: usize = 8;
 pub(super) const MIN_PARTICLES: usize = 16_384;
 
 /// Whether a product over `particles` particles and `nodes` nodes is blocked: enough
-/// particles, and no more nodal entries in the ranges' vectors than four per particle —
-/// bodies in a large, mostly empty box (the 10⁵-particle colliding spheres: 2.6 nodes per
-/// particle) would spend more on clearing and adding the ranges' vectors than the threads
-/// save. Depends on the layout only, never on the number of threads.
+/// particles, and at most half a node per particle (`8·nodes ≤ 4·particles`: the ranges'
+/// vectors hold at most four nodes per particle in all) — bodies in a large, mostly empty
+/// box (the 10⁵-particle colliding spheres: 2.6 nodes per particle) would spend more on
+/// clearing and adding the ranges' vectors than the threads save. Depends on the layout
+/// only, never on the number of threads.
 pub(super) fn is_blocked(particles: usize, nodes: usize) -> bool {
     particles >= MIN_PARTICLES && nodes * BLOCKS <= 4 * particles
 }
