@@ -12,7 +12,10 @@
 
 use serde::{Deserialize, Serialize};
 
-/// Boundary condition of the 1D domain.
+/// Boundary condition of the 1D domain's ends, or of one axis of a 2D/3D grid
+/// ([`crate::nd::GridNd`], one per axis; its module docs give the node numbering of each
+/// kind: a periodic axis stores `cells` nodes, a fixed one `cells + 3` with a ghost node
+/// past each wall, and the nodes on or past a wall are held at zero velocity).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Boundary {

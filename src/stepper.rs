@@ -193,6 +193,13 @@ where
 
     /// Computes a trial state at `time() + dt` from the committed state, replacing any
     /// previous trial. On error no trial is pending and the committed state is unchanged.
+    ///
+    /// The step order the limits assume (update stress last, USL): the committed state's
+    /// nodal fields give the grid update and the grid → particle update of positions,
+    /// velocities, `F` and stress; then a particle → grid pass **at the new positions**
+    /// forms the trial's nodal mass, velocity and acceleration. The trial's view must carry
+    /// those nodal fields (the next step starts from them, and the stability and temporal
+    /// limits judge the trial on them), with weights formed at the new positions.
     fn try_step(&mut self, dt: f64) -> Result<(), StepError>;
 
     /// Makes the pending trial the committed state.
@@ -220,7 +227,8 @@ where
     /// Asks the stepper to attach a [`PassSummary`] ([`View::summary`]; in 2D/3D a
     /// [`crate::nd::SummaryNd`], [`crate::nd::ViewNd::summary`]) to the states its passes
     /// compute from now on (`true`) or to stop (`false`); returns whether it does. The
-    /// controller always asks. The default does not provide it.
+    /// controller asks (`true`) before every step, so a repeated call should cost nothing
+    /// once the summary is on. The default does not provide it.
     fn provide_summary(&mut self, on: bool) -> bool {
         let _ = on;
         false

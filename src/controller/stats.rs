@@ -19,7 +19,8 @@ pub struct Stats {
     pub rejected_by_cause: BTreeMap<RejectCause, u64>,
     /// Accepted steps by what bound their `dt` (limit name or a [`super::bound`] name).
     pub binding: BTreeMap<String, u64>,
-    /// Smallest accepted step; `None` before the first.
+    /// Smallest accepted step, the last step of a run (cut to land on `t_end`) included;
+    /// `None` before the first.
     pub dt_min: Option<f64>,
     /// Largest accepted step; `None` before the first.
     pub dt_max: Option<f64>,
