@@ -160,7 +160,7 @@ where
     /// limits that use it: the d-dimensional stability limit's layout guard
     /// ([`crate::limits_nd::StabilityNd`]), whose maxima do not depend on the order either,
     /// so it is also bit for bit the unthreaded run; the stability limit's Lanczos products
-    /// on large, dense layouts
+    /// on layouts of 16 384 particles or more
     /// ([`crate::limits_nd::stiffness::apply_scaled_on`]) and the temporal error's sweeps
     /// ([`crate::limits_nd::TemporalErrorNd`]), whose sums are taken over a fixed split of
     /// the particles on a pool, so that `λmax` and `dsm` differ from an unthreaded run's by

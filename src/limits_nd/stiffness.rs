@@ -52,13 +52,12 @@ pub fn apply_scaled<const D: usize>(
 }
 
 /// [`apply_scaled`] on `pool` where given and the layout is large and dense enough (at
-/// least 16 384 particles and at most half a node per particle): the particles in 8 fixed
-/// ranges, each summed into a nodal vector of its own, the vectors then added in range
-/// order: the same bits on any number of threads, round-off away from the one-range sum.
-/// The 8 vectors are held for the product (through a whole Lanczos run in
-/// [`lanczos_on`]): 32 B per particle on a 2D wave of 2 particles per cell and axis, 24 B in
-/// 3D. Bodies in a mostly empty box keep the one-range product, whose cost clearing and
-/// adding the vectors would exceed.
+/// least 16 384 particles and at most half an active node per particle): the particles in
+/// 8 fixed ranges, each summed into a vector of its own over the active nodes, the vectors
+/// then added in range order: the same bits on any number of threads, round-off away from
+/// the one-range sum. The 8 vectors are held for the product (through a whole Lanczos run
+/// in [`lanczos_on`]): 32 B per particle on a 2D wave of 2 particles per cell and axis,
+/// 24 B in 3D, about as much for bodies in a box (only their active nodes count).
 pub fn apply_scaled_on<const D: usize>(
     pool: Option<&rayon::ThreadPool>,
     view: &ViewNd<'_, D>,
@@ -67,6 +66,11 @@ pub fn apply_scaled_on<const D: usize>(
     y: &mut [f64],
 ) {
     apply_scaled_with(pool, view, inv_sqrt_m, u, y, &mut Vec::new());
+}
+
+/// Active nodes of `view`.
+fn active_nodes<const D: usize>(view: &ViewNd<'_, D>) -> usize {
+    view.node_active.iter().filter(|&&a| a).count()
 }
 
 /// [`apply_scaled_on`] keeping the ranges' vectors in `parts` between products.
@@ -81,13 +85,13 @@ fn apply_scaled_with<const D: usize>(
     let nn = view.n_nodes();
     debug_assert!(u.len() == nn * D && y.len() == nn * D && inv_sqrt_m.len() == nn);
     match pool {
-        Some(pool) if blocked::is_blocked(view.n_particles(), nn) => {
+        Some(pool) if blocked::is_blocked(view.n_particles(), active_nodes(view)) => {
             blocked::apply_blocked(pool, view, inv_sqrt_m, u, y, parts)
         }
         _ => {
             y.fill(0.0);
             let fields = blocked::ProductFields::of(view);
-            blocked::add_range(&fields, inv_sqrt_m, u, 0..view.n_particles(), y);
+            blocked::add_range(&fields, inv_sqrt_m, u, 0..view.n_particles(), y, None);
         }
     }
 }

@@ -20,14 +20,13 @@ pub(super) const BLOCKS: usize = 8;
 /// thread: a small layout's product costs less than the nodal vectors' sum).
 pub(super) const MIN_PARTICLES: usize = 16_384;
 
-/// Whether a product over `particles` particles and `nodes` nodes is blocked: enough
-/// particles, and at most half a node per particle (`8·nodes ≤ 4·particles`: the ranges'
-/// vectors hold at most four nodes per particle in all) — bodies in a large, mostly empty
-/// box (the 10⁵-particle colliding spheres: 2.6 nodes per particle) would spend more on
-/// clearing and adding the ranges' vectors than the threads save. Depends on the layout
-/// only, never on the number of threads.
-pub(super) fn is_blocked(particles: usize, nodes: usize) -> bool {
-    particles >= MIN_PARTICLES && nodes * BLOCKS <= 4 * particles
+/// Whether a product over `particles` particles and `active` active nodes is blocked:
+/// enough particles, and at most half an active node per particle (`8·active ≤
+/// 4·particles`: the ranges' vectors, which hold the active nodes only, then hold at most
+/// four nodes per particle in all). Depends on the layout only, never on the number of
+/// threads.
+pub(super) fn is_blocked(particles: usize, active: usize) -> bool {
+    particles >= MIN_PARTICLES && active * BLOCKS <= 4 * particles
 }
 
 /// What a product reads of the view: its particle fields and weights (the view's
@@ -54,8 +53,10 @@ impl<'a, const D: usize> ProductFields<'a, D> {
     }
 }
 
-/// `y = A u` on `pool` (module docs); `y` has the length of `u`. `parts` holds the
-/// ranges' vectors between products (resized and cleared here).
+/// `y = A u` on `pool` (module docs); `y` has the length of `u`. The ranges' vectors hold
+/// the active nodes only, numbered in node order (`slot`), so that bodies in a mostly
+/// empty box cost no more than a dense layout; `parts` holds them between products
+/// (resized and cleared here).
 pub(super) fn apply_blocked<const D: usize>(
     pool: &rayon::ThreadPool,
     view: &ViewNd<'_, D>,
@@ -67,37 +68,72 @@ pub(super) fn apply_blocked<const D: usize>(
     let fields = ProductFields::of(view);
     let n = view.n_particles();
     let per_block = n.div_ceil(BLOCKS);
+    let (slot, active) = active_slots(view.node_active);
     pool.install(|| {
         parts.resize_with(BLOCKS, Vec::new);
         parts.par_iter_mut().enumerate().for_each(|(b, part)| {
             part.clear();
-            part.resize(y.len(), 0.0);
+            part.resize(active * D, 0.0);
             let range = (b * per_block).min(n)..((b + 1) * per_block).min(n);
-            add_range(&fields, inv_sqrt_m, u, range, part);
+            add_range(&fields, inv_sqrt_m, u, range, part, Some(&slot));
         });
         let parts = &*parts;
-        y.par_chunks_mut(4096).enumerate().for_each(|(k, chunk)| {
-            let start = k * 4096;
-            for (j, out) in chunk.iter_mut().enumerate() {
-                let mut sum = 0.0;
-                for part in parts {
-                    sum += part[start + j];
+        y.par_chunks_mut(NODES_PER_TASK * D)
+            .enumerate()
+            .for_each(|(k, chunk)| {
+                let first = k * NODES_PER_TASK;
+                for (j, node) in chunk.chunks_mut(D).enumerate() {
+                    let s = slot[first + j];
+                    for (a, out) in node.iter_mut().enumerate() {
+                        let mut sum = 0.0;
+                        if s != INACTIVE {
+                            for part in parts {
+                                sum += part[s as usize * D + a];
+                            }
+                        }
+                        *out = sum;
+                    }
                 }
-                *out = sum;
-            }
-        });
+            });
     });
+}
+
+/// Nodes per task when the ranges' vectors are added.
+const NODES_PER_TASK: usize = 4096;
+
+/// The slot of an inactive node.
+const INACTIVE: u32 = u32::MAX;
+
+/// Each node's slot among the active nodes (in node order; [`INACTIVE`] for the others)
+/// and their count.
+fn active_slots(node_active: &[bool]) -> (Vec<u32>, usize) {
+    let mut count = 0usize;
+    let slot = node_active
+        .iter()
+        .map(|&a| {
+            if a {
+                count += 1;
+                (count - 1) as u32
+            } else {
+                INACTIVE
+            }
+        })
+        .collect();
+    (slot, count)
 }
 
 /// The particles `range`'s part of `A u` added into `y`, particle by particle: each
 /// particle's `(V_p λ_t, V_p μ_t)`, `V_p = det(F_p) V⁰_p`, is formed here, as its weight row
-/// is, so that repeated products keep no per-particle array.
+/// is, so that repeated products keep no per-particle array. With `slot`, node `i`'s
+/// components go to `y[slot[i]·D ..]` (active nodes only: an inactive node's
+/// `M^{-1/2}` is zero and it is skipped), else to `y[i·D ..]`.
 pub(super) fn add_range<const D: usize>(
     view: &ProductFields<'_, D>,
     inv_sqrt_m: &[f64],
     u: &[f64],
     range: std::ops::Range<usize>,
     y: &mut [f64],
+    slot: Option<&[u32]>,
 ) {
     for p in range {
         let vol = det(&view.f[p]) * view.volume0[p];
@@ -123,8 +159,9 @@ pub(super) fn add_range<const D: usize>(
                     continue;
                 }
                 let f = stress * g;
+                let at = slot.map_or(i, |slot| slot[i] as usize);
                 for a in 0..D {
-                    y[i * D + a] += f[a] * s;
+                    y[at * D + a] += f[a] * s;
                 }
             }
         });
@@ -156,7 +193,8 @@ mod tests {
             .expect("a valid set-up");
         s.try_step(1e-4).and_then(|_| s.accept()).expect("a step");
         let view = s.view();
-        assert!(is_blocked(view.n_particles(), view.n_nodes()));
+        let active = view.node_active.iter().filter(|&&a| a).count();
+        assert!(is_blocked(view.n_particles(), active));
         let inv = inverse_sqrt_mass(&view);
         let u: Vec<f64> = (0..inv.len() * 2)
             .map(|k| ((k * 7919) % 1000) as f64 / 1000.0 - 0.5)
