@@ -65,29 +65,23 @@ pub fn apply_scaled_on<const D: usize>(
     u: &[f64],
     y: &mut [f64],
 ) {
-    apply_scaled_with(pool, view, inv_sqrt_m, u, y, &mut Vec::new());
+    let mut plan = pool.and_then(|_| blocked::BlockedProduct::plan(view));
+    apply_planned(pool.zip(plan.as_mut()), view, inv_sqrt_m, u, y);
 }
 
-/// Active nodes of `view`.
-fn active_nodes<const D: usize>(view: &ViewNd<'_, D>) -> usize {
-    view.node_active.iter().filter(|&&a| a).count()
-}
-
-/// [`apply_scaled_on`] keeping the ranges' vectors in `parts` between products.
-fn apply_scaled_with<const D: usize>(
-    pool: Option<&rayon::ThreadPool>,
+/// [`apply_scaled_on`] with the blocked product's plan formed by the caller (once per
+/// Lanczos run), or on the calling thread without one.
+fn apply_planned<const D: usize>(
+    blocked: Option<(&rayon::ThreadPool, &mut blocked::BlockedProduct)>,
     view: &ViewNd<'_, D>,
     inv_sqrt_m: &[f64],
     u: &[f64],
     y: &mut [f64],
-    parts: &mut Vec<Vec<f64>>,
 ) {
     let nn = view.n_nodes();
     debug_assert!(u.len() == nn * D && y.len() == nn * D && inv_sqrt_m.len() == nn);
-    match pool {
-        Some(pool) if blocked::is_blocked(view.n_particles(), active_nodes(view)) => {
-            blocked::apply_blocked(pool, view, inv_sqrt_m, u, y, parts)
-        }
+    match blocked {
+        Some((pool, plan)) => plan.apply(pool, view, inv_sqrt_m, u, y),
         _ => {
             y.fill(0.0);
             let fields = blocked::ProductFields::of(view);
@@ -413,8 +407,8 @@ pub fn lanczos_on<const D: usize>(
     let mut qf = vec![0.0; n];
     let mut wf = vec![0.0; n];
     let inv_sqrt_m = inverse_sqrt_mass(view);
-    // The blocked products' range vectors, kept between products.
-    let mut parts = Vec::new();
+    // The blocked products' plan (slots, range vectors), formed once for the run.
+    let mut plan = pool.and_then(|_| blocked::BlockedProduct::plan(view));
     // (Ritz value, residual bound, coordinates in the basis) of the latest iteration.
     let mut best: (f64, f64, Vec<f64>) = (0.0, f64::INFINITY, vec![1.0]);
     // Consecutive iterations in which the Ritz value moved by less than `tol·λ/10`.
@@ -423,7 +417,7 @@ pub fn lanczos_on<const D: usize>(
         for (&c, &v) in comps.iter().zip(&qc) {
             qf[c] = v;
         }
-        apply_scaled_with(pool, view, &inv_sqrt_m, &qf, &mut wf, &mut parts);
+        apply_planned(pool.zip(plan.as_mut()), view, &inv_sqrt_m, &qf, &mut wf);
         space.complete(&mut wf);
         let mut w = gather(&wf);
         let a = dots(&[&qc], &w)[0];

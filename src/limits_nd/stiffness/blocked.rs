@@ -53,49 +53,70 @@ impl<'a, const D: usize> ProductFields<'a, D> {
     }
 }
 
-/// `y = A u` on `pool` (module docs); `y` has the length of `u`. The ranges' vectors hold
-/// the active nodes only, numbered in node order (`slot`), so that bodies in a mostly
-/// empty box cost no more than a dense layout; `parts` holds them between products
-/// (resized and cleared here).
-pub(super) fn apply_blocked<const D: usize>(
-    pool: &rayon::ThreadPool,
-    view: &ViewNd<'_, D>,
-    inv_sqrt_m: &[f64],
-    u: &[f64],
-    y: &mut [f64],
-    parts: &mut Vec<Vec<f64>>,
-) {
-    let fields = ProductFields::of(view);
-    let n = view.n_particles();
-    let per_block = n.div_ceil(BLOCKS);
-    let (slot, active) = active_slots(view.node_active);
-    pool.install(|| {
-        parts.resize_with(BLOCKS, Vec::new);
-        parts.par_iter_mut().enumerate().for_each(|(b, part)| {
-            part.clear();
-            part.resize(active * D, 0.0);
-            let range = (b * per_block).min(n)..((b + 1) * per_block).min(n);
-            add_range(&fields, inv_sqrt_m, u, range, part, Some(&slot));
-        });
-        let parts = &*parts;
-        y.par_chunks_mut(NODES_PER_TASK * D)
-            .enumerate()
-            .for_each(|(k, chunk)| {
-                let first = k * NODES_PER_TASK;
-                for (j, node) in chunk.chunks_mut(D).enumerate() {
-                    let s = slot[first + j];
-                    for (a, out) in node.iter_mut().enumerate() {
-                        let mut sum = 0.0;
-                        if s != INACTIVE {
-                            for part in parts {
-                                sum += part[s as usize * D + a];
-                            }
-                        }
-                        *out = sum;
-                    }
-                }
+/// A blocked product's layout-dependent part, formed once per Lanczos run (the view does
+/// not change between its products): each node's slot among the active nodes (the ranges'
+/// vectors hold the active nodes only, numbered in node order, so that bodies in a mostly
+/// empty box cost no more than a dense layout), and the ranges' vectors kept between
+/// products.
+pub(super) struct BlockedProduct {
+    slot: Vec<u32>,
+    active: usize,
+    parts: Vec<Vec<f64>>,
+}
+
+impl BlockedProduct {
+    /// The plan for `view`, or `None` where its layout is not blocked ([`is_blocked`]).
+    pub(super) fn plan<const D: usize>(view: &ViewNd<'_, D>) -> Option<Self> {
+        let (slot, active) = active_slots(view.node_active);
+        is_blocked(view.n_particles(), active).then(|| Self {
+            slot,
+            active,
+            parts: Vec::new(),
+        })
+    }
+
+    /// `y = A u` on `pool` (module docs) for the view the plan was formed for; `y` has the
+    /// length of `u`.
+    pub(super) fn apply<const D: usize>(
+        &mut self,
+        pool: &rayon::ThreadPool,
+        view: &ViewNd<'_, D>,
+        inv_sqrt_m: &[f64],
+        u: &[f64],
+        y: &mut [f64],
+    ) {
+        let fields = ProductFields::of(view);
+        let n = view.n_particles();
+        let per_block = n.div_ceil(BLOCKS);
+        let (slot, active, parts) = (&self.slot, self.active, &mut self.parts);
+        pool.install(|| {
+            parts.resize_with(BLOCKS, Vec::new);
+            parts.par_iter_mut().enumerate().for_each(|(b, part)| {
+                part.clear();
+                part.resize(active * D, 0.0);
+                let range = (b * per_block).min(n)..((b + 1) * per_block).min(n);
+                add_range(&fields, inv_sqrt_m, u, range, part, Some(slot));
             });
-    });
+            let parts = &*parts;
+            y.par_chunks_mut(NODES_PER_TASK * D)
+                .enumerate()
+                .for_each(|(k, chunk)| {
+                    let first = k * NODES_PER_TASK;
+                    for (j, node) in chunk.chunks_mut(D).enumerate() {
+                        let s = slot[first + j];
+                        for (a, out) in node.iter_mut().enumerate() {
+                            let mut sum = 0.0;
+                            if s != INACTIVE {
+                                for part in parts {
+                                    sum += part[s as usize * D + a];
+                                }
+                            }
+                            *out = sum;
+                        }
+                    }
+                });
+        });
+    }
 }
 
 /// Nodes per task when the ranges' vectors are added.
@@ -171,7 +192,6 @@ pub(super) fn add_range<const D: usize>(
 #[cfg(test)]
 mod tests {
     use super::super::{apply_scaled, apply_scaled_on, inverse_sqrt_mass};
-    use super::is_blocked;
     use crate::nd::{GridNd, MaterialNd, ParticlesNd, ShapeNd, SolverNd, Vector};
     use crate::{Boundary, Stepper};
 
@@ -193,8 +213,7 @@ mod tests {
             .expect("a valid set-up");
         s.try_step(1e-4).and_then(|_| s.accept()).expect("a step");
         let view = s.view();
-        let active = view.node_active.iter().filter(|&&a| a).count();
-        assert!(is_blocked(view.n_particles(), active));
+        assert!(super::BlockedProduct::plan(&view).is_some());
         let inv = inverse_sqrt_mass(&view);
         let u: Vec<f64> = (0..inv.len() * 2)
             .map(|k| ((k * 7919) % 1000) as f64 / 1000.0 - 0.5)
