@@ -11,13 +11,17 @@ fixed step 2e-4 s.
 
     python examples/python/taichi_mpm88.py [--jelly] [--t-end 0.5] [--repeat 3]
         [--find-failure] [--arch cpu|gpu] [--threads N] [--handover N_PARTICLES] [--fp64]
-        [--config JSON]
+        [--config JSON] [--no-summary]
 
 * every run times mpm88's fixed step and the controlled run ``--repeat`` times,
   interleaved (the controller first in every other round), and prints the medians;
 * ``--find-failure`` bisects the fixed step at which the run blows up before ``t_end``
   (non-finite values, a particle past a wall, J <= 0, or kinetic plus elastic energy above
   10x what the block has to give: its initial kinetic plus potential energy);
+* the stepper hands over, with the arrays, a ``"summary"`` its export kernel computes
+  (energies, the element bound of MLS-MPM's gradients, the speed-of-sound step), so that
+  the limits make no passes of their own for them; ``--no-summary`` hands over the arrays
+  only;
 * ``--handover N`` times one substep, the state export and the package's read of it at N
   particles (the hand-over's cost per controlled step) and exits.
 """
@@ -55,8 +59,9 @@ class Mpm88:
     """The solver as an mpm_dt stepper: ``try_step`` writes the trial into the second
     state, ``accept`` swaps the two."""
 
-    def __init__(self, n: int = 8192, n_grid: int = 128, jelly: bool = False, seed: int = 88):
-        self.n, self.n_grid, self.jelly = n, n_grid, jelly
+    def __init__(self, n: int = 8192, n_grid: int = 128, jelly: bool = False, seed: int = 88,
+                 summary: bool = True):
+        self.n, self.n_grid, self.jelly, self.summary = n, n_grid, jelly, summary
         self.dx = 1.0 / n_grid
         self.p_vol = (0.5 * self.dx) ** 2
         self.p_mass = self.p_vol * 1.0
@@ -65,9 +70,19 @@ class Mpm88:
         self.states = [State(n), State(n)]
         self.grid_v = ti.Vector.field(2, float, (n_grid, n_grid))
         self.grid_m = ti.field(float, (n_grid, n_grid))
-        # What the view reads, packed into one array (one `to_numpy` per state): x, v, F
-        # and the Cauchy stress, 12 numbers per particle.
-        self.packed = ti.field(float, (n, 12))
+        # What the view reads, written by one kernel into one float64 numpy buffer
+        # (taichi's CPU backend hands a kernel the numpy buffer itself: no copy), laid out
+        # as contiguous blocks x (n, 2), v (n, 2), F (n, 2, 2), stress (n, 2, 2) and the
+        # summary's totals, so that the package reads each field in place.
+        self.buf = np.empty(12 * n + 8)
+        self.out = dict(x=self.buf[: 2 * n].reshape(n, 2), v=self.buf[2 * n: 4 * n].reshape(n, 2),
+                        F=self.buf[4 * n: 8 * n].reshape(n, 2, 2),
+                        stress=self.buf[8 * n: 12 * n].reshape(n, 2, 2))
+        self.totals = self.buf[12 * n:]
+        # The summary's constants in float64 (a Python float in a kernel is a literal of
+        # taichi's default precision, float32 here): lambda, mu, h, m, V0.
+        self.consts = ti.field(ti.f64, 5)
+        self.consts.from_numpy(np.array([self.lam, self.mu, self.dx, self.p_mass, self.p_vol]))
         self.sums = ti.field(ti.f64, 5)
         self.escaped = ti.field(int, ())
         rng = np.random.default_rng(seed)
@@ -167,16 +182,50 @@ class Mpm88:
                 b.F[p] = ti.Matrix.identity(float, 2) * ti.sqrt(ti.max(b.J[p], 0.0))
 
     @ti.kernel
-    def export(self, s: ti.template()):
-        """x, v, F (sqrt(J) I for the fluid) and the Cauchy stress tau / J, packed."""
+    def export(self, s: ti.template(), buf: ti.types.ndarray()):
+        """x, v, F (sqrt(J) I for the fluid) and the Cauchy stress tau / J in float64 into
+        `buf` (layout in `__init__`), and from the same values, in float64, the summary's
+        totals: kinetic energy, the growth monitor's complementary energy
+        1/2 sigma : C^-1 : sigma V, the first moment, the element bound
+        (V/m) min((4/h^2) max(2 lambda + 2 mu, 2 mu), 2 (4/h^2) max(lambda + 2 mu, 2 mu)) of
+        MLS-MPM's gradients, the speed-of-sound step min h / (c_p + |v_a|), and the number
+        of particles within a cell of the box's edge."""
+        n = self.n
+        t0 = 12 * n
+        for k in ti.static(range(8)):
+            buf[t0 + k] = 0.0
+        buf[t0 + 5] = 1e30
+        lam, mu, h = self.consts[0], self.consts[1], self.consts[2]
+        m, vol0 = self.consts[3], self.consts[4]
+        inv = 4.0 / (h * h)
         for p in s.x:
             sigma = self.kirchhoff(s.F[p], s.J[p]) / s.J[p]
+            xp, vp = s.x[p].cast(ti.f64), s.v[p].cast(ti.f64)
+            Fp, sp = s.F[p].cast(ti.f64), sigma.cast(ti.f64)
             for a in ti.static(range(2)):
-                self.packed[p, a] = s.x[p][a]
-                self.packed[p, 2 + a] = s.v[p][a]
+                buf[2 * p + a] = xp[a]
+                buf[2 * n + 2 * p + a] = vp[a]
                 for b in ti.static(range(2)):
-                    self.packed[p, 4 + 2 * a + b] = s.F[p][a, b]
-                    self.packed[p, 8 + 2 * a + b] = sigma[a, b]
+                    buf[4 * n + 4 * p + 2 * a + b] = Fp[a, b]
+                    buf[8 * n + 4 * p + 2 * a + b] = sp[a, b]
+            vol = Fp.determinant() * vol0
+            tr = sp.trace()
+            strain = 0.0
+            if mu > 0.0:
+                strain = 0.5 * vol * (sp.norm_sqr() - lam * tr * tr / (2.0 * mu + 2.0 * lam)) / (2.0 * mu)
+            elif lam > 0.0:
+                strain = 0.5 * vol * 2.0 * (tr / 2.0) ** 2 / (2.0 * lam)
+            buf[t0 + 0] += 0.5 * m * vp.norm_sqr()
+            buf[t0 + 1] += strain
+            buf[t0 + 2] += m * xp[0]
+            buf[t0 + 3] += m * xp[1]
+            bound = vol / m * ti.min(inv * ti.max(2.0 * lam + 2.0 * mu, 2.0 * mu),
+                                     2.0 * inv * ti.max(lam + 2.0 * mu, 2.0 * mu))
+            ti.atomic_max(buf[t0 + 4], bound)
+            c = ti.sqrt((lam + 2.0 * mu) * vol / m)
+            ti.atomic_min(buf[t0 + 5], h / (c + ti.max(ti.abs(vp[0]), ti.abs(vp[1]))))
+            if not (h <= xp[0] <= 1.0 - h and h <= xp[1] <= 1.0 - h):
+                buf[t0 + 6] += 1.0
 
     @ti.kernel
     def reduce(self, s: ti.template()):
@@ -232,15 +281,16 @@ class Mpm88:
 
     def state(self, trial: bool) -> dict[str, Any]:
         start = time.perf_counter()
-        self.export(self.states[1 if trial else 0])
-        a = self.packed.to_numpy()
-        x = a[:, 0:2]
-        if trial and not (self.dx <= x.min() and x.max() <= 1 - self.dx):
+        self.export(self.states[1 if trial else 0], self.buf)
+        tot = self.totals
+        if trial and tot[6] > 0:
             raise mpm_dt.StepFailed("a particle crossed a wall")
-        out = dict(x=x, v=a[:, 2:4], F=a[:, 4:8].reshape(-1, 2, 2), stress=a[:, 8:12].reshape(-1, 2, 2),
-                   mass=self.mass, volume0=self.volume0, lame=self.lame, cells=(self.n_grid,) * 2,
-                   length=(1.0, 1.0), boundary="fixed", shape="bspline2", transfer="apic",
-                   gradient="mls")
+        out = dict(self.out, mass=self.mass, volume0=self.volume0, lame=self.lame,
+                   cells=(self.n_grid,) * 2, length=(1.0, 1.0), boundary="fixed", shape="bspline2",
+                   transfer="apic", gradient="mls")
+        if self.summary:
+            out["summary"] = dict(kinetic=tot[0], strain=tot[1], first_moment=tot[2:4],
+                                  element_bound=tot[4], sound_unit_step=tot[5])
         self.export_s += time.perf_counter() - start
         return out
 
@@ -348,6 +398,8 @@ def main() -> None:
     p.add_argument("--handover", type=int, default=0, metavar="N_PARTICLES")
     p.add_argument("--config", default="{}", help="the controller config as JSON (default: {})")
     p.add_argument("--fp64", action="store_true", help="taichi in float64 (mpm88 runs float32)")
+    p.add_argument("--no-summary", action="store_true",
+                   help="hand over the arrays only: the limits make their own passes")
     args = p.parse_args()
     ti.init(arch=ti.cpu if args.arch == "cpu" else ti.gpu, cpu_max_num_threads=args.threads,
             default_fp=ti.f64 if args.fp64 else ti.f32, log_level=ti.WARN)
@@ -356,7 +408,7 @@ def main() -> None:
         print(f"hand-over at {args.handover} particles ({scene}, {args.arch}, {args.threads} thread(s)):")
         handover(args.handover, args.jelly)
         return
-    sim = Mpm88(jelly=args.jelly)
+    sim = Mpm88(jelly=args.jelly, summary=not args.no_summary)
     warm_up(sim)
     print(f"mpm88 {scene}: {sim.n} particles, {sim.n_grid}^2 cells, to t = {args.t_end} "
           f"({args.arch}, {args.threads} thread(s))")

@@ -10,6 +10,7 @@ mod convert;
 mod errors;
 mod state;
 mod stepper;
+mod summary;
 
 use arrays::{item, shape_of};
 use errors::state_error;
@@ -120,8 +121,15 @@ where
 /// ``"linear"``), optional ``"transfer"`` (``"flip"``, ``"apic"``: the APIC limit
 /// ``sqrt(2 (1 + p) / lambda_max)`` of the controller, ``bspline2`` only), optional
 /// ``"gradient"`` (``"exact"``, or ``"mls"``: MLS-MPM's ``(4/h^2) S_ip (x_i - x_p)``,
-/// ``bspline2`` only) and optional
-/// ``"domain"`` (n, d) GIMP particle lengths (default: the cube root of ``volume0``).
+/// ``bspline2`` only), optional
+/// ``"domain"`` (n, d) GIMP particle lengths (default: the cube root of ``volume0``) and
+/// an optional ``"summary"``: a dict of totals the solver computes in its own pass over the
+/// particles -- ``"kinetic"`` (sum of 1/2 m v^2), ``"strain"`` (the stored energy the
+/// growth monitor watches; the library's own is sum of 1/2 sigma : C^-1 : sigma V),
+/// ``"first_moment"`` (d,) (sum of m x), optionally ``"element_bound"`` (an upper bound on
+/// ``lambda_max``: for MLS-MPM's gradients ``(4/h^2)(V/m)(d lambda + 2 mu)`` per particle)
+/// and ``"sound_unit_step"`` (min of ``h_a / (c_p + |v_a|)``) -- so that the controller's
+/// limits make no passes of their own for them.
 #[pyfunction]
 #[pyo3(signature = (state, full_map = false))]
 fn critical_dt<'py>(state: Bound<'py, PyDict>, full_map: bool) -> PyResult<Bound<'py, PyDict>> {

@@ -16,7 +16,9 @@ use crate::arrays::{item, read_into, scalar, shape_of, with_values};
 use crate::errors::state_error;
 use mpm_dt::limits_nd::TransferNd;
 use mpm_dt::nd::fields::{compute_weights, NodalFieldsNd, ParticleFieldsNd};
-use mpm_dt::nd::{det, GridNd, ShapeNd, Tensor, Vector, ViewNd, WeightsNd, INACTIVE_MASS_RATIO};
+use mpm_dt::nd::{
+    det, GridNd, ShapeNd, SummaryNd, Tensor, Vector, ViewNd, WeightsNd, INACTIVE_MASS_RATIO,
+};
 use mpm_dt::Boundary;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -79,6 +81,8 @@ pub struct StateNd<const D: usize> {
     domain: Vec<Vector<D>>,
     pub weights: WeightsNd<D>,
     pub nodal: NodalFieldsNd<D>,
+    /// The solver's own totals (`"summary"`, [`crate::summary`]), if it gave them.
+    pub summary: Option<SummaryNd<D>>,
 }
 
 impl<const D: usize> Default for StateNd<D> {
@@ -102,6 +106,7 @@ impl<const D: usize> Default for StateNd<D> {
             domain: Vec::new(),
             weights: WeightsNd::default(),
             nodal: NodalFieldsNd::default(),
+            summary: None,
         }
     }
 }
@@ -338,6 +343,7 @@ impl<const D: usize> StateNd<D> {
         tensors(dict, "F", n, &mut self.f)?;
         tensors(dict, "stress", n, &mut self.sigma)?;
         self.read_moduli(dict, n)?;
+        self.summary = crate::summary::read_summary(dict)?;
         self.density.clear();
         for p in 0..n {
             let j = det(&self.f[p]);
@@ -451,7 +457,7 @@ impl<const D: usize> StateNd<D> {
             node_velocity: &self.nodal.velocity,
             node_acceleration: &self.nodal.acceleration,
             node_active: &self.nodal.active,
-            summary: None,
+            summary: self.summary,
             split: None,
         }
     }

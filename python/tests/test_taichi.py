@@ -38,3 +38,17 @@ def test_short_run_under_the_controller(mpm88: Any, jelly: bool) -> None:
         assert all(d["dt"] <= rec["proposal"] * (1 + 1e-12) for rec in d["limits"] if rec["proposal"])
     # mpm88's own step is below the controller's on this scene.
     assert summary["dt_mean"] > mpm88.MPM88_DT
+
+
+def test_the_kernel_s_summary_takes_the_library_s_steps(mpm88: Any) -> None:
+    """The summary the export kernel computes (in float64, from the same values) is what the
+    library computes from the arrays: the same steps with and without it."""
+    runs = []
+    for summary in (False, True):
+        sim = mpm88.Mpm88(jelly=True, summary=summary)
+        decisions: list[dict[str, Any]] = []
+        mpm_dt.Controller(dim=2, config={}, gravity=(0.0, -9.8)).run_until(sim, 0.005, decisions.append)
+        runs.append(decisions)
+    assert len(runs[0]) == len(runs[1]) > 3
+    for a, b in zip(*runs):
+        assert b["dt"] == pytest.approx(a["dt"], rel=1e-9) and b["binding"] == a["binding"]
