@@ -71,6 +71,15 @@
 //!
 //! ## Features
 //!
+//! * `reference` (on by default) — the test bench: the reference solvers ([`mpm`],
+//!   [`nd::SolverNd`] and its kernels), their scenarios and exact problems ([`scenario`],
+//!   [`problems`], [`nd::scenario`], [`nd::problems`]), [`memory`], and the verification
+//!   tools that run them (`stability::empirical`, [`limits_nd::critical`]). Without it
+//!   (`mpm-dt = { version = "…", default-features = false }`) the crate is the controller
+//!   library alone — the stepper contract, views, grids and weights (with the kernels that
+//!   compute weights and nodal fields for a solver that keeps only particles,
+//!   [`nd::fields`]), the limits and the controller — and compiles none of the test bench:
+//!   `cargo build --lib --no-default-features` checks it.
 //! * `mpi` — global reductions over MPI ranks ([`reduce`], rsmpi): a run split over
 //!   processes by particle or by grid slab takes the same steps on every rank. Needs an MPI
 //!   library (OpenMPI) and libclang.
@@ -85,17 +94,22 @@ pub mod fmt_num;
 pub mod grid;
 pub mod limit;
 pub mod limits_nd;
+#[cfg(feature = "reference")]
 pub mod memory;
+#[cfg(feature = "reference")]
 pub mod mpm;
 pub mod nd;
 pub mod nodal_stiffness;
 pub mod pass_summary;
+#[cfg(feature = "reference")]
 pub mod problems;
 mod recycled;
 pub mod reduce;
+#[cfg(feature = "reference")]
 pub mod scenario;
 pub mod shape;
 pub mod stability;
+mod stencil;
 pub mod stepper;
 pub mod synchronized_velocity;
 pub mod view_check;

@@ -24,6 +24,7 @@ impl<T> Default for Recycled<T> {
     }
 }
 
+#[cfg_attr(not(feature = "reference"), allow(dead_code))] // used by the reference solvers
 impl<T> Recycled<T> {
     /// Forgets the value; its storage is kept for the next computation.
     pub fn invalidate(&mut self) {
@@ -66,6 +67,7 @@ impl<T: Clone> Clone for Recycled<T> {
 }
 
 /// A vector refilled from `values` in the storage of `spare` (emptied first).
+#[cfg(feature = "reference")]
 pub(crate) fn refill<T>(spare: Option<Vec<T>>, values: impl Iterator<Item = T>) -> Vec<T> {
     let mut v = spare.unwrap_or_default();
     v.clear();

@@ -17,8 +17,8 @@
 //! `faer::sparse::SparseColMat` when general sparse algebra is wanted.
 
 use crate::grid::{Boundary, Grid};
-use crate::mpm::stencil;
 use crate::shape::{ParticleStencil, Shape, MAX_NODES};
+use crate::stencil;
 use faer::sparse::{SparseColMat, Triplet};
 
 /// `S` and `D` in fixed-width particle-major storage (see the module docs).

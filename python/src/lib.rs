@@ -14,7 +14,7 @@ mod summary;
 
 use arrays::{item, shape_of};
 use errors::state_error;
-use mpm_dt::limits_nd::critical::lambda_max;
+use mpm_dt::limits_nd::stiffness::lambda_max;
 use mpm_dt::limits_nd::full_map;
 use mpm_dt::limits_nd::stiffness::dense_lambda_max;
 use mpm_dt::nd::{Vector, ViewNd};

@@ -69,6 +69,7 @@ pub use filter::{FilterPreset, SoderlindFilter, DSM_FLOOR};
 pub use growth::{
     checkerboard_share, total_energy, GrowthConfig, GrowthIndicator, GrowthMonitor, GROWTH,
 };
+#[cfg(feature = "reference")]
 pub(crate) use growth::{particle_energy, sum_energy_lanes, ENERGY_LANES};
 pub use scaled::SafetyScaled;
 pub use stats::Stats;

@@ -16,7 +16,8 @@
 //!   [`super::full_map::FULL_MAP_LIMIT`] unknowns (`None` above, or when its search
 //!   brackets no critical step).
 
-use super::stiffness::{dense_lambda_max, lanczos};
+use super::stiffness::dense_lambda_max;
+pub use super::stiffness::lambda_max;
 use crate::dimension::{Dim, Dimension};
 use crate::nd::{SolverNd, Tensor, Vector, ViewNd};
 use crate::stepper::Stepper;
@@ -53,20 +54,6 @@ pub struct CriticalTable {
     /// caller who wants them: 33 runs more): where stability is not monotone in `dt`, one
     /// bisection's answer depends on its bracket, and this says where.
     pub dt_empirical_scan: Option<crate::stability::MonotoneScan>,
-}
-
-/// `λmax(M⁻¹K)` of a view by Lanczos to a relative residual of `1e-10`, from the
-/// stability limit's cold start (checkerboards with seeded noise), in at most 150
-/// products — 60 above 10⁵ unknowns, where the fully reorthogonalised basis would cost
-/// seconds and a gigabyte (the value has settled far below the limits' tolerance by then;
-/// the residual of a clustered top converges much more slowly than the value).
-pub fn lambda_max<const D: usize>(view: &ViewNd<'_, D>) -> f64 {
-    let n = view.n_nodes() * D;
-    let space = super::stiffness::NodalSpace::new(view, &crate::reduce::SingleProcess);
-    let start = super::start::checkerboard_start(view, &space);
-    let max_iter = if n > 100_000 { 60 } else { 150 };
-    let r = lanczos(view, &start, 1e-10, max_iter.min(n.max(1)));
-    r.lambda
 }
 
 /// The table for the committed state of `solver`; `empirical` = `Some((A, steps))` runs

@@ -40,6 +40,7 @@
 //! ```
 
 pub mod bound_tracking;
+#[cfg(feature = "reference")]
 pub mod critical;
 pub mod element_bound;
 pub mod full_map;

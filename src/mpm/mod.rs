@@ -40,7 +40,7 @@ mod reference;
 mod setup;
 mod slot_window;
 mod state;
-pub(crate) mod stencil;
+pub(crate) use crate::stencil;
 mod step;
 mod summary_lanes;
 

@@ -103,6 +103,7 @@ pub(crate) struct ParticleBounds<'a, const D: usize> {
     pub speeds_finite: bool,
 }
 
+#[cfg_attr(not(feature = "reference"), allow(dead_code))] // used by the reference solvers
 impl<'a, const D: usize> ParticleBounds<'a, D> {
     /// An empty accumulator for a pass that hands each particle's moduli and density to
     /// [`Self::add_values`] itself (it reads no particle fields of its own).

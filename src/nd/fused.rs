@@ -1,20 +1,21 @@
 //! The reference solver's step in one pass over the particles: each particle's grid →
-//! particle update ([`kernels::update_particle`]) followed at once by its share of the
+//! particle update ([`update::update_particle`]) followed at once by its share of the
 //! particle → grid pass at its new position, so that a step reads and writes each
 //! particle's fields once instead of twice.
 //!
 //! The nodal sums are made in the same order as by the two passes apart (particle by
 //! particle, in index order, into the trial's own nodal arrays, while the gather reads the
 //! committed state's), and every value is formed by the same functions: a fused step is
-//! the same, bit for bit, as [`kernels::grid_to_particle`] followed by
+//! the same, bit for bit, as [`update::grid_to_particle`] followed by
 //! [`kernels::particle_to_grid`]. A run whose particles move between processes between the
 //! two passes (a grid split into slabs) cannot fuse them and takes the two passes.
 
 use super::factor_metric::ParticleBounds;
 use super::factors::{visit_row_with, RowVisitor};
-use super::kernels::{self, axis_factors_as, Committed, ParticleFault, Written};
+use super::kernels::axis_factors_as;
 use super::shape::{AxisShape, BSplineAxis, GimpAxis, LinearAxis};
 use super::threaded::{threaded_step, ThreadScratch};
+use super::update::{self, Committed, ParticleFault, Written};
 use super::{GridNd, MaterialNd, ShapeNd, SummaryNd, Tensor, Vector};
 
 /// What a fused step reads besides the committed particles.
@@ -87,7 +88,7 @@ pub(super) struct FusedOutcome<const D: usize> {
 /// (to be completed and normalised by [`kernels::finish_nodal`]). With `bounds` (summaries
 /// on) it also sums the trial's totals and accumulates its element bound and sound-speed
 /// step there. Stops at the first particle whose update fails, as
-/// [`kernels::grid_to_particle`] does.
+/// [`update::grid_to_particle`] does.
 pub(super) fn fused_step<const D: usize>(
     threads: Option<(&rayon::ThreadPool, &mut ThreadScratch)>,
     inputs: &FusedInputs<'_, D>,
@@ -177,7 +178,7 @@ fn fused_step_as<const D: usize, S: AxisShape>(
         }
         let (acc, l) = (gather.acc, gather.l);
         let material = &inputs.material[p];
-        let u = kernels::update_particle(
+        let u = update::update_particle(
             grid,
             material,
             p,

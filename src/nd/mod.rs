@@ -8,27 +8,42 @@
 pub mod factor_metric;
 pub mod factors;
 pub mod fields;
+#[cfg(feature = "reference")]
 mod fused;
 mod grid;
 mod kernels;
+#[cfg(feature = "reference")]
 mod material;
+#[cfg(feature = "reference")]
 mod migration;
+#[cfg(feature = "reference")]
 mod particles;
+#[cfg(feature = "reference")]
 pub mod problems;
+#[cfg(feature = "reference")]
 pub mod scenario;
 mod shape;
+#[cfg(feature = "reference")]
 mod slab;
+#[cfg(feature = "reference")]
 mod solver;
+#[cfg(feature = "reference")]
 mod threaded;
+#[cfg(feature = "reference")]
+mod update;
 mod view;
 mod view_weights;
 mod weights;
 
 pub use grid::GridNd;
+#[cfg(feature = "reference")]
 pub use material::MaterialNd;
+#[cfg(feature = "reference")]
 pub use particles::{ParticlesNd, SetupNdError};
 pub use shape::{AxisStencil, ShapeNd};
+#[cfg(feature = "reference")]
 pub use slab::MIN_CELLS as MIN_SLAB_CELLS;
+#[cfg(feature = "reference")]
 pub use solver::{SolverNd, ThreadsError, INACTIVE_MASS_RATIO};
 pub use view::{NodalHalo, SplitNd, SummaryNd, ViewNd};
 pub use view_weights::ViewWeightsNd;

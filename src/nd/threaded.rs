@@ -29,8 +29,9 @@
 use super::factor_metric::ParticleBounds;
 use super::factors::{visit_row_with, RowVisitor};
 use super::fused::{FusedInputs, FusedOutcome, Gather, NodalSums};
-use super::kernels::{axis_factors_as, update_particle, Committed, ParticleFault, Written};
+use super::kernels::axis_factors_as;
 use super::shape::AxisShape;
+use super::update::{update_particle, Committed, ParticleFault, Written};
 use super::{GridNd, SummaryNd, Tensor, Vector};
 use rayon::prelude::*;
 use sort::sort_by_slab;

@@ -27,6 +27,7 @@ use super::{kernels, GridNd, ShapeNd, Vector, WeightsNd};
 pub struct ViewWeightsNd<'a, const D: usize>(Source<'a, D>);
 
 #[derive(Clone, Copy, Debug)]
+#[cfg_attr(not(feature = "reference"), allow(dead_code))] // used by the reference solvers
 enum Source<'a, const D: usize> {
     Stored(&'a WeightsNd<D>),
     Formed(FormedNd<'a, D>),
@@ -52,6 +53,7 @@ impl<'a, const D: usize> ViewWeightsNd<'a, D> {
     /// read. The lengths of `x` and `domain` must match, and every particle's stencil must
     /// lie on stored nodes (the solver checks both when it sets a state up); a particle
     /// whose stencil does not is read as an empty row.
+    #[cfg_attr(not(feature = "reference"), allow(dead_code))] // used by the reference solvers
     pub(crate) fn formed(
         grid: &'a GridNd<D>,
         shape: ShapeNd,

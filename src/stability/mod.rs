@@ -63,6 +63,7 @@
 pub mod bound58;
 pub mod certificate;
 pub mod certified;
+#[cfg(feature = "reference")]
 pub mod empirical;
 
 mod error;
@@ -85,6 +86,7 @@ pub use lambda_max::{
 pub use nodal::NodalOperator;
 
 pub use bound58::{bound58, Bound58, Bound58Reading};
+#[cfg(feature = "reference")]
 pub use empirical::{
     scan_monotone, EmpiricalConfig, EmpiricalCritical, MonotoneScan, Protocol, RunOutcome,
     SCAN_POINTS,

@@ -3,8 +3,9 @@
 use super::{SolverNd, StateNd};
 use crate::nd::factor_metric::ParticleBounds;
 use crate::nd::fused::{fused_step, FusedInputs, NodalSums};
-use crate::nd::kernels::{self, Committed, ParticleFault, Written};
+use crate::nd::kernels;
 use crate::nd::threaded::ThreadScratch;
+use crate::nd::update::{self, Committed, ParticleFault, Written};
 use crate::nd::{SummaryNd, Tensor, Vector, ViewWeightsNd};
 use crate::stepper::StepError;
 use std::rc::Rc;
@@ -171,7 +172,7 @@ impl<const D: usize> SolverNd<D> {
             let m = Rc::make_mut(&mut trial.moduli);
             Some((&mut m.lambda[..], &mut m.mu[..]))
         };
-        let fault = kernels::grid_to_particle(
+        let fault = update::grid_to_particle(
             self.whole(),
             &c.carried.material,
             &c.carried.mass,

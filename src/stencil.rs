@@ -28,7 +28,9 @@
 //! a float so that the step's block loops, which evaluate many stencils at once,
 //! vectorise.
 
-use crate::shape::{ParticleStencil, Shape};
+use crate::shape::ParticleStencil;
+#[cfg(feature = "reference")]
+use crate::shape::Shape;
 
 /// `⌊q⌋` by truncation and correction: one conversion instead of a call to `floor` (the
 /// x86-64 baseline has no rounding instruction). Equal to `q.floor()` for `|q| < 2⁶³`;
@@ -128,6 +130,7 @@ pub(crate) fn linear<const ROUND: bool>(x: f64, inv_h: f64) -> ParticleStencil {
 
 /// The stencil of `shape` through the fast forms.
 #[inline(always)]
+#[cfg(feature = "reference")]
 pub(crate) fn of(shape: Shape, x: f64, width: f64, inv_h: f64) -> ParticleStencil {
     match shape {
         Shape::Gimp => gimp::<false>(x, width, inv_h),
