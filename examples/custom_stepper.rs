@@ -12,7 +12,6 @@
 //! the controller adds its temporal error limit and growth monitor. Nothing else of the
 //! library is needed: no reference solver, no scenario file.
 
-mod common;
 
 use mpm_dt::controller::{Controller, ControllerConfig};
 use mpm_dt::limit::{LimitError, Metrics, Proposal, StepLimit};
@@ -278,7 +277,14 @@ impl StepLimit for UserCfl {
 }
 
 fn main() -> ExitCode {
-    common::init_logs("warn", false);
+    // Decisions to stderr, `RUST_LOG` to see more (the library never installs a subscriber).
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn"));
+    tracing_subscriber::fmt()
+        .with_writer(std::io::stderr)
+        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
+        .with_env_filter(filter)
+        .init();
     let json = std::env::args().any(|a| a == "--json");
     let mut solver = UserMpm::new(32, 2, 1.0, 1e-2);
     let limits: Vec<Box<dyn StepLimit>> = vec![Box::new(UserCfl { alpha: 0.5 })];
