@@ -12,7 +12,6 @@
 //! the controller adds its temporal error limit and growth monitor. Nothing else of the
 //! library is needed: no reference solver, no scenario file.
 
-
 use mpm_dt::controller::{Controller, ControllerConfig};
 use mpm_dt::limit::{LimitError, Metrics, Proposal, StepLimit};
 use mpm_dt::{Boundary, Grid, Shape, StepError, Stepper, View, WeightKind, Weights};
