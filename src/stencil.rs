@@ -138,7 +138,8 @@ pub(crate) fn of(shape: Shape, x: f64, width: f64, inv_h: f64) -> ParticleStenci
     }
 }
 
-#[cfg(test)]
+// Drives the reference solvers: tested with the `reference` feature.
+#[cfg(all(test, feature = "reference"))]
 mod tests {
     use super::*;
     use proptest::prelude::*;

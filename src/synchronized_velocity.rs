@@ -171,7 +171,8 @@ pub fn closing_half_step(decisions: &[Decision]) -> Option<f64> {
         .map(|d| 0.5 * d.dt)
 }
 
-#[cfg(test)]
+// Drives the reference solvers: tested with the `reference` feature.
+#[cfg(all(test, feature = "reference"))]
 mod tests {
     use super::*;
     use crate::grid::{Boundary, Grid};

@@ -116,7 +116,7 @@ impl Weights {
     /// The weights of `shape` for particles at `x` with GIMP widths `widths` on `grid`.
     /// Positions must lie in the grid's domain (the reference solver guarantees it).
     ///
-    /// The values are the reference solver's own branch-free stencils (`mpm::stencil`),
+    /// The values are the reference solver's own branch-free stencils (`crate::stencil`),
     /// which agree with [`Shape::stencil`] to round-off: the weights a reference step from
     /// these positions uses, bit for bit. [`Weights::compute_into`] does the same
     /// into existing storage.
@@ -246,14 +246,14 @@ impl Weights {
 type Rows<'a> = (&'a mut [u32], &'a mut [f64], &'a mut [f64]);
 
 /// [`fill_shape`] compiled for AVX2, where `⌊·⌋` is one instruction (the same exact result
-/// as the baseline's truncation and correction, see `mpm::stencil`).
+/// as the baseline's truncation and correction, see `crate::stencil`).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 fn fill_avx2(grid: &Grid, shape: Shape, x: &[f64], widths: &[f64], out: Rows<'_>) {
     fill_shape::<true>(grid, shape, x, widths, out);
 }
 
-/// [`fill`] with the reference solver's branch-free stencil of `shape` (`mpm::stencil`),
+/// [`fill`] with the reference solver's branch-free stencil of `shape` (`crate::stencil`),
 /// `⌊·⌋` by rounding instruction if `ROUND`: the view's weights are exactly those the
 /// solver's step uses.
 #[inline(always)]

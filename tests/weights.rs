@@ -136,9 +136,9 @@ proptest! {
     }
 
     /// `compute_into` a reused buffer gives `compute`'s bits, and both agree with
-    /// `Shape::stencil` to round-off node by node (they are the solver's branch-free forms,
-    /// `mpm::stencil`; near a cell boundary the two may pick different first nodes, the
-    /// extra node then carrying a round-off weight).
+    /// `Shape::stencil` to round-off node by node (they are the branch-free forms of the
+    /// crate-private `stencil` module, which the 1D solver shares; near a cell boundary the
+    /// two may pick different first nodes, the extra node then carrying a round-off weight).
     #[test]
     fn computed_weights_are_shape_stencils_to_round_off(
         cases in prop::collection::vec(case(), 1..4),

@@ -210,7 +210,7 @@ class Mpm88:
                     buf[8 * n + 4 * p + 2 * a + b] = sp[a, b]
             vol = Fp.determinant() * vol0
             tr = sp.trace()
-            strain = 0.0
+            strain = ti.cast(0.0, ti.f64)
             if mu > 0.0:
                 strain = 0.5 * vol * (sp.norm_sqr() - lam * tr * tr / (2.0 * mu + 2.0 * lam)) / (2.0 * mu)
             elif lam > 0.0:

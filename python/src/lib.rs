@@ -14,9 +14,9 @@ mod summary;
 
 use arrays::{item, shape_of};
 use errors::state_error;
-use mpm_dt::limits_nd::stiffness::lambda_max;
 use mpm_dt::limits_nd::full_map;
 use mpm_dt::limits_nd::stiffness::dense_lambda_max;
+use mpm_dt::limits_nd::stiffness::lambda_max;
 use mpm_dt::nd::{Vector, ViewNd};
 use mpm_dt::{Dim, Dimension};
 use pyo3::prelude::*;
@@ -127,9 +127,13 @@ where
 /// particles -- ``"kinetic"`` (sum of 1/2 m v^2), ``"strain"`` (the stored energy the
 /// growth monitor watches; the library's own is sum of 1/2 sigma : C^-1 : sigma V),
 /// ``"first_moment"`` (d,) (sum of m x), optionally ``"element_bound"`` (an upper bound on
-/// ``lambda_max``: for MLS-MPM's gradients ``(4/h^2)(V/m)(d lambda + 2 mu)`` per particle)
-/// and ``"sound_unit_step"`` (min of ``h_a / (c_p + |v_a|)``) -- so that the controller's
-/// limits make no passes of their own for them.
+/// ``lambda_max``, the largest over the particles of
+/// ``(4/h^2)(V/m) min(max(d lambda + 2 mu, 2 mu), d max(lambda + 2 mu, 2 mu))`` for MLS-MPM's
+/// gradients; a value below the library's own lets the stability limit propose steps that
+/// are too large) and ``"sound_unit_step"`` (min of ``h_a / (c_p + |v_a|)``) -- so that the
+/// controller's limits make no passes of their own for them. A NaN in a trial's summary is
+/// a blow-up (the trial is retried with a smaller step); a missing or unknown key, a
+/// negative bound or a step that is not positive is a ``StateError``.
 #[pyfunction]
 #[pyo3(signature = (state, full_map = false))]
 fn critical_dt<'py>(state: Bound<'py, PyDict>, full_map: bool) -> PyResult<Bound<'py, PyDict>> {

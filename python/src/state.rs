@@ -343,7 +343,7 @@ impl<const D: usize> StateNd<D> {
         tensors(dict, "F", n, &mut self.f)?;
         tensors(dict, "stress", n, &mut self.sigma)?;
         self.read_moduli(dict, n)?;
-        self.summary = crate::summary::read_summary(dict)?;
+        self.summary = None;
         self.density.clear();
         for p in 0..n {
             let j = det(&self.f[p]);
@@ -396,6 +396,7 @@ impl<const D: usize> StateNd<D> {
             gravity,
             INACTIVE_MASS_RATIO * min_mass,
         );
+        self.summary = crate::summary::read_summary(dict)?;
         Ok(())
     }
 

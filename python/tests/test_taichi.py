@@ -5,6 +5,7 @@ import pathlib
 import sys
 from typing import Any
 
+import numpy as np
 import pytest
 
 ti = pytest.importorskip("taichi")
@@ -50,5 +51,33 @@ def test_the_kernel_s_summary_takes_the_library_s_steps(mpm88: Any) -> None:
         mpm_dt.Controller(dim=2, config={}, gravity=(0.0, -9.8)).run_until(sim, 0.005, decisions.append)
         runs.append(decisions)
     assert len(runs[0]) == len(runs[1]) > 3
+
+    def record(d: dict[str, Any], limit: str) -> dict[str, Any]:
+        return next(r for r in d["limits"] if r["name"] == limit)
     for a, b in zip(*runs):
         assert b["dt"] == pytest.approx(a["dt"], rel=1e-9) and b["binding"] == a["binding"]
+        # The growth monitor's energy and the speed-of-sound step: the kernel's, in float64.
+        for limit, value in (("growth", lambda r: r["metrics"]["energy"]), ("sound_speed", lambda r: r["proposal"])):
+            assert value(record(b, limit)) == pytest.approx(value(record(a, limit)), rel=1e-12)
+
+
+def test_the_kernel_s_summary_is_the_arrays_totals(mpm88: Any) -> None:
+    """The export kernel's totals against numpy over the float64 arrays it wrote, on a
+    deformed jelly (a few steps after a shear): energies, moment, bound and sound step."""
+    sim = mpm88.Mpm88(jelly=True)
+    mpm_dt.Controller(dim=2, config={}, gravity=(0.0, -9.8)).run_until(sim, 0.005)
+    s = sim.state(False)
+    lam, mu, h, m, v0 = sim.lam, sim.mu, sim.dx, sim.p_mass, sim.p_vol
+    vol = np.linalg.det(s["F"]) * v0
+    sig = s["stress"]
+    tr = np.trace(sig, axis1=1, axis2=2)
+    strain = 0.5 * vol * ((sig**2).sum((1, 2)) - lam * tr * tr / (2 * mu + 2 * lam)) / (2 * mu)
+    inv = 4.0 / h**2
+    bound = vol / m * min(inv * max(2 * lam + 2 * mu, 2 * mu), 2 * inv * max(lam + 2 * mu, 2 * mu))
+    c = np.sqrt((lam + 2 * mu) * vol / m)
+    want = dict(kinetic=0.5 * m * (s["v"] ** 2).sum(), strain=strain.sum(), element_bound=bound.max(),
+                sound_unit_step=(h / (c + np.abs(s["v"]).max(1))).min())
+    assert abs(strain.sum()) > 0
+    for key, value in want.items():
+        assert s["summary"][key] == pytest.approx(value, rel=1e-12), key
+    assert s["summary"]["first_moment"] == pytest.approx(m * s["x"].sum(0), rel=1e-12)

@@ -36,7 +36,9 @@
 //!
 //! For MLS-MPM's gradients `∇S_ip = (4/h²) S_ip (x_i − x_p)` the metric is exactly
 //! `H_p = (4/h²) I` (the quadratic B-spline's second moment is `h²/4` per axis), so
-//! `λ_p = (4/h²)(V_p/m_p)(Dλ_t + 2μ_t)`: the bound is read off the particle's moduli and
+//! `λ_p = (4/h²)(V_p/m_p) min(max(Dλ_t + 2μ_t, 2μ_t), D max(λ_t + 2μ_t, 2μ_t))` — that is
+//! `(4/h²)(V_p/m_p)(Dλ_t + 2μ_t)` for `λ_t ≥ 0`, `(4/h²)(V_p/m_p) 2μ_t` for `λ_t < 0`
+//! ([`from_metric`]): the bound is read off the particle's moduli and
 //! density alone, and a solver can supply it from its own pass for nothing
 //! ([`crate::nd::SummaryNd::element_bound`]).
 //!

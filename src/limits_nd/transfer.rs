@@ -100,7 +100,8 @@ pub fn apic_gain<const D: usize>(
     }
 }
 
-#[cfg(test)]
+// Drives the reference solvers: tested with the `reference` feature.
+#[cfg(all(test, feature = "reference"))]
 mod tests {
     use super::*;
     use crate::nd::{GridNd, MaterialNd, ParticlesNd, ShapeNd, SolverNd, WeightsNd};

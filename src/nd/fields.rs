@@ -11,6 +11,10 @@
 
 use super::{kernels, GridNd, ShapeNd, Tensor, Vector, WeightsNd};
 
+/// Relative nodal-mass threshold of the reference solver: nodes with
+/// `m_i ≤ 1e-14 · min_p m_p` are inactive (a `threshold` for [`NodalFieldsNd::compute`]).
+pub const INACTIVE_MASS_RATIO: f64 = 1e-14;
+
 /// Fills `weights` with `S_ip`, `∇S_ip` of `shape` at positions `x` on `grid` (`domain`:
 /// the GIMP particle domain lengths per axis, ignored by the other shapes). On error, the
 /// first particle whose stencil leaves the stored nodes (past a fixed wall).

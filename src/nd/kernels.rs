@@ -1,6 +1,8 @@
-//! The kernels of the d-dimensional USL step: weights at the particle positions,
-//! particle → grid, grid update and grid → particle. Written once for any `D` over the
-//! tensor-product stencil (`nodes_per_axis^D` entries per particle).
+//! The library's kernels of the d-dimensional USL step: weights at the particle positions
+//! and particle → grid with the nodal finish (for the views of a solver that keeps only
+//! particles, [`super::fields`], and for the reference solver). Written once for any `D`
+//! over the tensor-product stencil (`nodes_per_axis^D` entries per particle). The
+//! reference solver's grid → particle update is in `nd::update`.
 
 use super::factor_metric::ParticleBounds;
 use super::factors::{form_row, AxisFactors};

@@ -35,6 +35,7 @@ mod view;
 mod view_weights;
 mod weights;
 
+pub use fields::INACTIVE_MASS_RATIO;
 pub use grid::GridNd;
 #[cfg(feature = "reference")]
 pub use material::MaterialNd;
@@ -44,7 +45,7 @@ pub use shape::{AxisStencil, ShapeNd};
 #[cfg(feature = "reference")]
 pub use slab::MIN_CELLS as MIN_SLAB_CELLS;
 #[cfg(feature = "reference")]
-pub use solver::{SolverNd, ThreadsError, INACTIVE_MASS_RATIO};
+pub use solver::{SolverNd, ThreadsError};
 pub use view::{NodalHalo, SplitNd, SummaryNd, ViewNd};
 pub use view_weights::ViewWeightsNd;
 pub use weights::{WeightsNd, WeightsNdError};

@@ -115,7 +115,8 @@ pub struct SummaryNd<const D: usize> {
     /// each particle's `λ_p = (V_p/m_p) min(λ̄(H_p) max(Dλ_t + 2μ_t, 2μ_t),
     /// tr(H_p) max(λ_t + 2μ_t, 2μ_t))` with `H_p = Σ_i ∇S_ip ∇S_ipᵀ/S_ip`, `λ̄` its largest
     /// Gershgorin row sum (for MLS-MPM's gradients `H_p = (4/h²) I`, so
-    /// `λ_p = (4/h²)(V_p/m_p)(Dλ_t + 2μ_t)`, O(1) per particle). It must be an upper
+    /// `λ_p = (4/h²)(V_p/m_p) min(max(Dλ_t + 2μ_t, 2μ_t), D max(λ_t + 2μ_t, 2μ_t))`, which is
+    /// `(4/h²)(V_p/m_p)(Dλ_t + 2μ_t)` when `λ_t ≥ 0`; O(1) per particle). It must be an upper
     /// bound of what the library would compute; `None` makes the stability limit compute
     /// it with a pass over the weights when it needs it.
     pub element_bound: Option<f64>,

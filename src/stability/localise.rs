@@ -90,7 +90,8 @@ fn rayleigh_quotient(op: &NodalOperator, x: &[f64]) -> f64 {
     dot(x, &cx) / dot(x, x)
 }
 
-#[cfg(test)]
+// Drives the reference solvers: tested with the `reference` feature.
+#[cfg(all(test, feature = "reference"))]
 mod tests {
     use super::*;
     use crate::mpm::{Material, ReferenceStepper};

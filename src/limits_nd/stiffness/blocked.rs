@@ -189,7 +189,8 @@ pub(super) fn add_range<const D: usize>(
     }
 }
 
-#[cfg(test)]
+// Drives the reference solvers: tested with the `reference` feature.
+#[cfg(all(test, feature = "reference"))]
 mod tests {
     use super::super::{apply_scaled, apply_scaled_on, inverse_sqrt_mass};
     use crate::nd::{GridNd, MaterialNd, ParticlesNd, ShapeNd, SolverNd, Vector};

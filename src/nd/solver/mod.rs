@@ -58,8 +58,7 @@ use crate::stepper::{StepError, Stepper};
 use std::rc::Rc;
 use std::sync::Arc;
 
-/// Relative nodal-mass threshold: nodes with `m_i ≤ 1e-14 · min_p m_p` are inactive.
-pub const INACTIVE_MASS_RATIO: f64 = 1e-14;
+pub use super::fields::INACTIVE_MASS_RATIO;
 
 /// The fields of the particles that a step does not change. They travel with the
 /// particles between processes ([`SolverNd::new_slab`]); a state shares them with the
