@@ -281,6 +281,8 @@ class Mpm88:
         pass
 
     def state(self, trial: bool) -> dict[str, Any]:
+        # The arrays are views of one buffer that the next call overwrites: mpm_dt copies
+        # what it reads at once; a caller that keeps a state copies it first.
         start = time.perf_counter()
         self.export(self.states[1 if trial else 0], self.buf)
         tot = self.totals
