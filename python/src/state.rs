@@ -27,6 +27,9 @@ use pyo3::types::PyDict;
 pub enum Fault {
     /// A non-finite value (field, particle): a blow-up, retryable in a trial.
     NonFinite(&'static str, usize),
+    /// A non-finite total in the state's `"summary"` (which one): a blow-up, retryable in a
+    /// trial.
+    NonFiniteSummary(&'static str),
     /// `det F ≤ 0` (particle, det F): retryable in a trial.
     Inverted(usize, f64),
     /// A particle whose stencil leaves the grid (particle, the axis along which it lies
@@ -49,6 +52,7 @@ impl Fault {
         let msg = match self {
             Fault::Invalid(e) => return e,
             Fault::NonFinite(field, p) => format!("non-finite {field} at particle {p}"),
+            Fault::NonFiniteSummary(what) => format!("non-finite {what}"),
             Fault::Inverted(p, j) => format!("det F = {j} <= 0 at particle {p}"),
             Fault::OutOfGrid(p, a, x) => {
                 format!("particle {p} (x[{a}] = {x}) has nodes outside the grid")

@@ -104,6 +104,14 @@ impl<'py, const D: usize> PyStepper<'py, D> {
     fn trial_fault(&self, fault: Fault, dt: f64) -> StepError {
         let (t, step) = (self.committed.t, self.step);
         match fault {
+            // No particle to name: the message says which total (the controller treats a
+            // failed trial as a non-finite one).
+            Fault::NonFiniteSummary(what) => StepError::Failed {
+                message: format!("non-finite {what}"),
+                t,
+                step,
+                dt,
+            },
             Fault::NonFinite(field, index) => StepError::NonFinite {
                 field,
                 index,

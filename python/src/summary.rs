@@ -117,15 +117,15 @@ pub fn read_summary<const D: usize>(
     let element_bound = optional_number(summary, "element_bound")?;
     let sound_unit_step = optional_number(summary, "sound_unit_step")?;
     if !(kinetic.is_finite() && strain.is_finite() && first_moment.iter().all(|v| v.is_finite())) {
-        return Err(Fault::NonFinite("summary (energies, first moment)", 0));
+        return Err(Fault::NonFiniteSummary("summary (energies, first moment)"));
     }
     // The library's own passes may give +∞ (a bound with a weight of zero at a node, a
     // material at rest with zero moduli): passed on as they are.
     if element_bound.is_some_and(f64::is_nan) {
-        return Err(Fault::NonFinite("summary[\"element_bound\"]", 0));
+        return Err(Fault::NonFiniteSummary("summary[\"element_bound\"]"));
     }
     if sound_unit_step.is_some_and(f64::is_nan) {
-        return Err(Fault::NonFinite("summary[\"sound_unit_step\"]", 0));
+        return Err(Fault::NonFiniteSummary("summary[\"sound_unit_step\"]"));
     }
     if let Some(b) = element_bound.filter(|&b| b < 0.0) {
         return Err(state_error(
