@@ -9,8 +9,6 @@ use super::factors::{form_row, AxisFactors};
 use super::shape::{AxisShape, BSplineAxis, GimpAxis, LinearAxis};
 use super::{GridNd, ShapeNd, Tensor, Vector, ViewWeightsNd, WeightsNd};
 use crate::grid::Boundary;
-#[cfg(feature = "reference")]
-use crate::reduce::Reduce;
 
 /// Fills `weights` with `S_ip`, `∇S_ip` at positions `x` as stored rows formed from the
 /// per-axis factors ([`super::factors`]). Returns the first particle whose stencil leaves
@@ -248,30 +246,5 @@ pub(super) fn finish_nodal_on<const D: usize>(
                 .for_each(|(k, (((m, v), a), act))| finish(k * NODES, m, v, a, act));
         }),
         None => finish(0, node_mass, node_v, node_a, active),
-    }
-}
-
-/// Completes the nodal sums `Σ_p S m`, `Σ_p S m v`, `−Σ_p V σ ∇S` over the processes of a
-/// split run (one reduction of `(1 + 2D)·n_nodes` numbers). A process whose own pass
-/// failed calls it with zeros, so that every process takes part.
-#[cfg(feature = "reference")]
-pub(super) fn sum_nodal<const D: usize>(
-    reduce: &dyn Reduce,
-    node_mass: &mut [f64],
-    node_v: &mut [Vector<D>],
-    node_a: &mut [Vector<D>],
-) {
-    let nn = node_mass.len();
-    let mut buf = Vec::with_capacity(nn * (1 + 2 * D));
-    buf.extend_from_slice(node_mass);
-    buf.extend(node_v.iter().flat_map(|v| v.iter().copied()));
-    buf.extend(node_a.iter().flat_map(|v| v.iter().copied()));
-    reduce.sum(&mut buf);
-    node_mass.copy_from_slice(&buf[..nn]);
-    for (i, v) in node_v.iter_mut().enumerate() {
-        *v = Vector::<D>::from_fn(|a, _| buf[nn + i * D + a]);
-    }
-    for (i, v) in node_a.iter_mut().enumerate() {
-        *v = Vector::<D>::from_fn(|a, _| buf[nn * (1 + D) + i * D + a]);
     }
 }

@@ -1,9 +1,11 @@
-//! The reference solver's grid → particle kernels in d dimensions: each particle's new
-//! velocity, deformation gradient, stress and position from the grid's updated fields
-//! (the library's own kernels — weights, particle → grid — are in [`super::kernels`]).
+//! The reference solver's own kernels in d dimensions: the grid → particle update (each
+//! particle's new velocity, deformation gradient, stress and position from the grid's
+//! updated fields) and the nodal sums of a run split over processes (the library's own
+//! kernels — weights, particle → grid — are in [`super::kernels`]).
 
 use super::{GridNd, MaterialNd, SummaryNd, Tensor, Vector, ViewWeightsNd};
 use crate::grid::Boundary;
+use crate::reduce::Reduce;
 
 /// Where a particle's update failed.
 pub(super) enum ParticleFault {
@@ -170,4 +172,28 @@ pub(super) fn update_particle<const D: usize>(
         sigma,
         det_f: j,
     })
+}
+
+/// Completes the nodal sums `Σ_p S m`, `Σ_p S m v`, `−Σ_p V σ ∇S` over the processes of a
+/// split run (one reduction of `(1 + 2D)·n_nodes` numbers). A process whose own pass
+/// failed calls it with zeros, so that every process takes part.
+pub(super) fn sum_nodal<const D: usize>(
+    reduce: &dyn Reduce,
+    node_mass: &mut [f64],
+    node_v: &mut [Vector<D>],
+    node_a: &mut [Vector<D>],
+) {
+    let nn = node_mass.len();
+    let mut buf = Vec::with_capacity(nn * (1 + 2 * D));
+    buf.extend_from_slice(node_mass);
+    buf.extend(node_v.iter().flat_map(|v| v.iter().copied()));
+    buf.extend(node_a.iter().flat_map(|v| v.iter().copied()));
+    reduce.sum(&mut buf);
+    node_mass.copy_from_slice(&buf[..nn]);
+    for (i, v) in node_v.iter_mut().enumerate() {
+        *v = Vector::<D>::from_fn(|a, _| buf[nn + i * D + a]);
+    }
+    for (i, v) in node_a.iter_mut().enumerate() {
+        *v = Vector::<D>::from_fn(|a, _| buf[nn * (1 + D) + i * D + a]);
+    }
 }

@@ -129,7 +129,7 @@ impl<const D: usize> Split<D> {
     fn complete_nodal(&self, m: &mut [f64], v: &mut [Vector<D>], a: &mut [Vector<D>]) {
         match self {
             Split::Alone => {}
-            Split::Particles(r) => kernels::sum_nodal(&**r, m, v, a),
+            Split::Particles(r) => super::update::sum_nodal(&**r, m, v, a),
             Split::Slab(s) => s.complete_nodal(m, v, a),
         }
     }
