@@ -391,6 +391,9 @@ impl StepLimit for Timed {
     fn reads_nodal_stiffness(&self) -> bool {
         self.inner.reads_nodal_stiffness()
     }
+    fn reads_element_bound(&self) -> bool {
+        self.inner.reads_element_bound()
+    }
     fn rejected(&mut self, dt: f64, cause: RejectCause) {
         self.inner.rejected(dt, cause)
     }

@@ -174,9 +174,19 @@ where
         let _ = (before, after, dt);
     }
 
-    /// Whether this limit reads [`crate::View::nodal_stiffness`] (default `false`); the controller
-    /// then asks its stepper to provide it ([`crate::Stepper::provide_nodal_stiffness`]).
+    /// Whether this limit's next proposal reads [`crate::View::nodal_stiffness`] (default
+    /// `false`); the controller then asks its stepper to provide it
+    /// ([`crate::Stepper::provide_nodal_stiffness`] for the committed state before a
+    /// proposal, [`crate::Stepper::provide_nodal_stiffness_on_trials`] before a trial, with
+    /// the answer after the proposal).
     fn reads_nodal_stiffness(&self) -> bool {
+        false
+    }
+
+    /// Whether this limit reads [`crate::PassSummary::element_bound`] (default `false`); the
+    /// controller then asks its stepper to provide it
+    /// ([`crate::Stepper::provide_element_bound`]).
+    fn reads_element_bound(&self) -> bool {
         false
     }
 

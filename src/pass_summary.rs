@@ -21,6 +21,10 @@
 //! total_energy      = controller::total_energy(view)   (the same lanes, the same bits)
 //! ```
 //!
+//! A stepper may add the element bound ([`PassSummary::element_bound`], from the weights
+//! its pass evaluates anyway); it vouches that the value is the formula's over the view's
+//! own weights, moduli and masses.
+//!
 //! The maxima do not depend on the order of the particles, so a stepper computes them in
 //! any order; the energy must follow [`crate::controller::total_energy`]'s grouping (particle
 //! `p` in lane `p mod 4`, lanes added in order) to give the same bits. A stepper that cannot
@@ -47,6 +51,14 @@ pub struct PassSummary {
     /// Kinetic plus stored energy, `Σ_p ½ m_p v_p² + ½ σ_p² F_p V_p⁰ / E_t,p`, summed as
     /// [`crate::controller::total_energy`] sums it.
     pub total_energy: f64,
+    /// An upper bound on `λmax` of the state's eq 56 operator, `B = max_p (E_t,p V_p/m_p)
+    /// Σ_i D_ip²/S_ip` (the element eigenvalue inequality with particles as elements,
+    /// `λmax(M⁻¹K) ≤ max_p λmax(M_p⁻¹K_p)`, `M_p = diag(m_p S_ip)`, `K_p = E_t,p V_p d_p d_pᵀ`),
+    /// or `None` when the stepper does not take it. `+∞` where some `S_ip = 0` has
+    /// `D_ip ≠ 0` (linear hats at a node). The certified tracker serves proposals between
+    /// its anchors from it ([`crate::stability::certified`], "Between anchors on the bound").
+    #[serde(default)]
+    pub element_bound: Option<f64>,
     /// The view it was stamped for ([`PassSummary::stamp`]); `None` until stamped.
     #[serde(skip)]
     stamp: Option<Stamp>,
@@ -81,7 +93,16 @@ impl PassSummary {
             max_wave_speed_sq,
             max_speed,
             total_energy,
+            element_bound: None,
             stamp: None,
+        }
+    }
+
+    /// The summary with its [`Self::element_bound`] set.
+    pub fn with_element_bound(self, bound: f64) -> Self {
+        Self {
+            element_bound: Some(bound),
+            ..self
         }
     }
 

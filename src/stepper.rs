@@ -224,6 +224,26 @@ where
         false
     }
 
+    /// Like [`Self::provide_nodal_stiffness`], for the states the coming trials write only:
+    /// the committed state is left as it is (a stepper that computes `K_N` for the
+    /// committed state when switched on should skip that here). The controller calls it
+    /// before every trial with whether its limits' next proposal reads `K_N`, which
+    /// changes from step to step when the stability limit serves on the element bound
+    /// ([`crate::stability::CertifiedTracker::wants_nodal_stiffness`]). The default forwards
+    /// to [`Self::provide_nodal_stiffness`].
+    fn provide_nodal_stiffness_on_trials(&mut self, on: bool) -> bool {
+        self.provide_nodal_stiffness(on)
+    }
+
+    /// Asks the stepper to add the element bound ([`PassSummary::element_bound`]) to the
+    /// summaries of the states it computes from now on (`true`) or to stop (`false`);
+    /// returns whether it does. The controller asks when one of its limits reads it
+    /// ([`crate::StepLimit::reads_element_bound`]). The default does not provide it.
+    fn provide_element_bound(&mut self, on: bool) -> bool {
+        let _ = on;
+        false
+    }
+
     /// Asks the stepper to attach a [`PassSummary`] ([`View::summary`]; in 2D/3D a
     /// [`crate::nd::SummaryNd`], [`crate::nd::ViewNd::summary`]) to the states its passes
     /// compute from now on (`true`) or to stop (`false`); returns whether it does. The

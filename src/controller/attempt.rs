@@ -42,6 +42,12 @@ impl<const D: usize> Controller<D>
 where
     Dim<D>: Dimension,
 {
+    /// Whether some limit's next proposal reads the stepper's `K_N`
+    /// ([`crate::StepLimit::reads_nodal_stiffness`]).
+    fn reads_nodal_stiffness(&self) -> bool {
+        self.limits.iter().any(|l| l.reads_nodal_stiffness())
+    }
+
     /// Advances one accepted step towards `t_end` (never past it), retrying rejected
     /// attempts; hands every attempt's decision to `on_decision` as it is made. Each
     /// attempt: the door (the committed view checked), proposals and the step
@@ -60,17 +66,22 @@ where
         let step = stepper.step_count();
         let span = tracing::info_span!("step", step, t);
         let _enter = span.enter();
-        if self.limits.iter().any(|l| l.reads_nodal_stiffness()) {
-            // Cheap to repeat: a stepper that already provides it just keeps its flag.
-            stepper.provide_nodal_stiffness(true);
-        }
-        // The same for the pass summary (`crate::pass_summary`).
+        // The pass summary (`crate::pass_summary`); cheap to repeat: a stepper that already
+        // provides it just keeps its flag.
         stepper.provide_summary(true);
+        if self.limits.iter().any(|l| l.reads_element_bound()) {
+            stepper.provide_element_bound(true);
+        }
         let mut last: Option<Decision> = None;
         let mut retry_cap: Option<f64> = None;
         let mut rejections: u32 = 0;
         loop {
             let attempt = rejections + 1;
+            // K_N on the committed state when the coming proposal reads it (a stepper that
+            // already has it keeps it; one that switches it on computes it for this state).
+            if self.reads_nodal_stiffness() {
+                stepper.provide_nodal_stiffness(true);
+            }
             // 0. The door: the committed view is checked before any limit reads it.
             let view = stepper.view();
             self.check_committed(&view, attempt)?;
@@ -79,6 +90,8 @@ where
             // The view borrows the stepper; a dimension's view type may have drop glue, so
             // end the borrow before the trial.
             drop(view);
+            // K_N on the trial's state exactly when the next proposal reads it.
+            stepper.provide_nodal_stiffness_on_trials(self.reads_nodal_stiffness());
             self.add_named_bounds(&mut proposals, retry_cap, t, t_end - t);
             let chosen = self.choose_step(&mut proposals, t, t_end, &mut last)?;
             let dt = chosen.dt;

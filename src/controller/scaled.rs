@@ -74,6 +74,10 @@ where
         self.inner.reads_nodal_stiffness()
     }
 
+    fn reads_element_bound(&self) -> bool {
+        self.inner.reads_element_bound()
+    }
+
     fn memory_bytes(&self) -> usize {
         self.inner.memory_bytes()
     }

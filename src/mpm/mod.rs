@@ -34,6 +34,7 @@
 //! * **GIMP width** `l_p` is fixed for the run (the particle domain is not stretched by `F`),
 //!   and must satisfy `0 < l_p ≤ h`.
 
+mod element_bound;
 mod material;
 mod particle_pass;
 mod reference;

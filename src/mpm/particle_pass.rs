@@ -2,6 +2,7 @@
 //! docs, where its layout, its bit-for-bit guarantees and its measurements are described),
 //! monomorphised over instruction set, shape, boundary and material.
 
+use super::element_bound::{self, BoundInputs};
 use super::material::Material;
 use super::slot_window::SlotWindow;
 use super::state::State;
@@ -96,7 +97,7 @@ impl<const GIMP: bool, const ROUND: bool> Stencil for Fixed<GIMP, ROUND> {
 }
 
 /// Particles per block of the particle pass (see `particle_pass`).
-const BLOCK: usize = 256;
+pub(super) const BLOCK: usize = 256;
 const _: () = assert!(
     BLOCK.is_multiple_of(ENERGY_LANES),
     "summary lanes must follow p mod 4"
@@ -113,6 +114,9 @@ pub(super) struct PassFlags {
     pub(super) c2_ref: f64,
     /// The trial's summary when [`Ctx::summary`] is set.
     pub(super) summary: Option<SummaryParts>,
+    /// The trial's element bound (`element_bound.rs`) when the summary and the bound are
+    /// taken on GIMP weights.
+    pub(super) element_bound: Option<f64>,
 }
 
 /// The stencils of one block in structure-of-arrays form, so that evaluating them is a
@@ -253,6 +257,8 @@ where
         (&mut [][..], &mut [][..])
     };
     let mut summary = ctx.summary.then(SummaryLanes::new);
+    let take_bound = ctx.summary && ctx.bound && matches!(ctx.shape, Shape::Gimp);
+    let mut bound_lanes = [0.0_f64; 4];
     // From the slice lengths (both `ext_len`), so that the compiler sees every
     // `base..base + MAX_NODES` in bounds.
     let max_base = (gather.len().min(acc.len()).min(band.len()) - MAX_NODES) as i64;
@@ -366,6 +372,17 @@ where
         // Out-of-domain or non-finite particles deposit on clamped slots: harmless,
         // because such a trial is refused before finalizing.
         stencils.fill(&stencil, x1, width, origin);
+        if take_bound {
+            let inputs = BoundInputs {
+                s: &stencils.s,
+                d: &stencils.d,
+                tangent: &et_out[start..end],
+                f: &f1[..len],
+                volume0: &vol0[..len],
+                mass: &mass[..len],
+            };
+            element_bound::add_block(&inputs, &mut bound_lanes);
+        }
         if stiffness {
             // The nodal stiffness of the new state (eq 56) from the same stencils: the
             // particles' weights first (a loop without stores to shared slots, and `c²_ref`
@@ -427,5 +444,6 @@ where
         first_out,
         c2_ref,
         summary: summary.map(SummaryLanes::finish),
+        element_bound: take_bound.then(|| bound_lanes.iter().fold(0.0_f64, |a, &b| a.max(b))),
     }
 }

@@ -61,6 +61,8 @@ pub struct ReferenceStepper {
     stiffness: bool,
     /// Whether the particle pass takes the states' summaries ([`Stepper::provide_summary`]).
     summary: bool,
+    /// Whether the summaries carry the element bound ([`Stepper::provide_element_bound`]).
+    bound: bool,
 }
 
 impl ReferenceStepper {
@@ -103,6 +105,7 @@ impl ReferenceStepper {
                 threshold,
                 stiffness: false,
                 summary: false,
+                bound: false,
             };
             deposit_state(&ctx, &mut workspace, &mut committed);
         }
@@ -128,6 +131,7 @@ impl ReferenceStepper {
             workspace,
             stiffness: false,
             summary: false,
+            bound: false,
         })
     }
 
@@ -257,6 +261,7 @@ impl ReferenceStepper {
             threshold: self.threshold,
             stiffness: self.stiffness,
             summary: self.summary,
+            bound: self.bound,
         }
     }
 
@@ -379,6 +384,22 @@ impl Stepper for ReferenceStepper {
     /// attached only if every `E_t`, `ρ` is positive and finite and the nodes pass too.
     fn provide_summary(&mut self, on: bool) -> bool {
         self.summary = on;
+        true
+    }
+
+    /// Takes the element bound ([`crate::PassSummary::element_bound`]) in the particle pass of
+    /// GIMP runs, from the stencils the deposit evaluates anyway (one division per
+    /// particle; `mpm/element_bound.rs`). Linear hats take none: their bound is infinite
+    /// wherever a particle sits on a node.
+    fn provide_element_bound(&mut self, on: bool) -> bool {
+        self.bound = on;
+        matches!(self.shape, Shape::Gimp)
+    }
+
+    /// The flag of [`Self::provide_nodal_stiffness`] without computing `K_N` for the
+    /// committed state.
+    fn provide_nodal_stiffness_on_trials(&mut self, on: bool) -> bool {
+        self.stiffness = on;
         true
     }
 

@@ -106,6 +106,8 @@ pub(crate) struct Ctx<'a> {
     /// Whether the pass also takes the [`crate::PassSummary`] of the new state and fills its
     /// tangent moduli, densities and node flags (`pass_summary.rs`).
     pub summary: bool,
+    /// Whether that summary carries the element bound (GIMP only; `element_bound.rs`).
+    pub bound: bool,
 }
 
 /// Scratch arrays on the extended lattice, allocated once per solver.
@@ -432,7 +434,11 @@ pub(crate) fn advance(
         let observed = std::mem::take(&mut ws.observed);
         let (spare, installed) = to.install_observed(observed);
         ws.observed = spare;
-        to.summary = (parts.ok && nodes_ok && installed).then_some(parts.summary);
+        let summary = match flags.element_bound {
+            Some(bound) => parts.summary.with_element_bound(bound),
+            None => parts.summary,
+        };
+        to.summary = (parts.ok && nodes_ok && installed).then_some(summary);
     }
     Ok(())
 }

@@ -58,6 +58,42 @@
 //!   a zero block of the mode is not multiplied, and waits for the next scheduled anchor:
 //!   `power_pass`, "Zero blocks").
 //!
+//! **Between anchors on the bound (opt-in).** A stepper that takes the element bound in its
+//! own pass ([`crate::PassSummary::element_bound`], `B = max_p (E_t,p V_p/m_p) Σ_i
+//! D_ip²/S_ip ≥ λmax(C)`, the element eigenvalue inequality with particles as elements) need
+//! not accumulate `K_N` on every state. With [`CertifiedConfig::on_bound`] the tracker
+//! serves the proposals between anchors as
+//!
+//! ```text
+//! λ̂ = λ_ref · max(1, B/B_ref)
+//! ```
+//!
+//! `λ_ref` and `B_ref` being the value served and the bound of the last state whose proposal
+//! was computed on `K_N` (an anchor, or a served pass), and asks the stepper for `K_N`
+//! ([`crate::Stepper::provide_nodal_stiffness_on_trials`], through
+//! [`CertifiedTracker::wants_nodal_stiffness`]) only for the state of the next anchor
+//! (`certify_every`), after `B` has moved by more than [`CertifiedConfig::bound_drift`]
+//! either way, or after a run of proposals on the bound: 4 at first, doubled after each
+//! proposal on `K_N` that the bound predicted (within [`BOUND_MISS`]), halved after one it
+//! did not, at most `certify_every − 1`. A view whose active nodes differ from the
+//! reference's, or without `K_N` when it is needed, is served on `K_N` assembled from its
+//! weights.
+//!
+//! Like the served quotient, `λ̂` between anchors is not a proof, and it is less tight:
+//! `λmax` can rise without `B` moving (the bound is loose by a factor `B/λmax` of about 2.3
+//! on uniform 2-per-cell GIMP layouts, and its maximum sits on the particle with the worst
+//! stencil, not where the top mode is), which the next anchor finds and certifies; a falling
+//! `λmax` is served at `λ_ref` until then (a smaller step than the quotient's). Measured
+//! against a tracker on `K_N` at every step, state by state (`tests/solver_summary.rs`):
+//! within 1 % below and 2 % above on small-amplitude waves, but 10 % below to 14 % above
+//! on a neo-Hookean wave at 20 % strain, where `λmax` moves by up to 16 % in three steps
+//! while `B` stays within 2 % — a `dt` up to 5 % above the quotient's, inside the
+//! [`super::Stability`] safety factor but not within the quotient's 1 %. Hence opt-in. What it
+//! saves is the accumulation of `K_N` (six products and three scattered adds per particle
+//! in the stepper's pass) and the served pass on most steps, against one division per
+//! particle for `B`: on the 10⁵-particle 1D wave a controlled step costs 13–22 % less
+//! (docs/performance.md).
+//!
 //! **What is and is not guaranteed.** At an anchor the step uses a certified upper bound.
 //! Between anchors (at most `certify_every − 1` proposals) `λ̂` is a Rayleigh quotient times
 //! the anchor's certified ratio `r` (`1 + margin` when the served mode certified first time),
@@ -79,73 +115,12 @@ use bracket::{Bracket, GROWTH_STEPS};
 
 mod anchor;
 mod bracket;
+mod config;
+mod on_bound;
 
-/// Settings of [`CertifiedTracker`].
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct CertifiedConfig {
-    /// Relative margin of the served and certified value above the Rayleigh quotient,
-    /// `λ̂ = (1 + margin) ρ` (default `10⁻³`, i.e. `dt` 0.05 % below the quotient's: the warm
-    /// Lanczos stops when its Ritz value moves less than `10⁻⁴` relative per iteration, so the
-    /// top eigenvalue is usually within this margin and the certificate passes first time).
-    pub margin: f64,
-    /// Certify (anchor) at least every this many proposals (default 20; 1 certifies every
-    /// step).
-    pub certify_every: u32,
-    /// Anchor at once when the Rayleigh quotient has dropped by more than this relative amount
-    /// since the last anchor (default `2·10⁻²`). On a 10⁵-particle bar the quotient of a
-    /// fixed vector in the (very clustered) top of the spectrum moves by up to 1 % per step
-    /// while λmax does not, so a tighter value re-anchors at almost every step; a stale mode
-    /// can hide at most this much of λmax (`dt` 1 % high) for at most `certify_every`
-    /// proposals, inside the `Stability` safety factor.
-    pub drop_tol: f64,
-    /// Taper a Lanczos mode to a window of 512 nodes around its largest component before
-    /// serving it, when that keeps its Rayleigh quotient within `margin / 10` (default
-    /// `true`; grids under 2048 nodes are never windowed). The served pass skips the nodes
-    /// where the mode is zero, so it then costs the localised price from the first step
-    /// instead of after the ~100–300 steps the power steps take to localise a Ritz vector
-    /// (`stability/localise.rs`; measured: README "Stability").
-    pub localise: bool,
-}
+pub use config::CertifiedConfig;
 
-impl Default for CertifiedConfig {
-    fn default() -> Self {
-        Self {
-            margin: 1e-3,
-            certify_every: 20,
-            drop_tol: 2e-2,
-            localise: true,
-        }
-    }
-}
-
-impl CertifiedConfig {
-    /// Checks `margin > 0`, `drop_tol ≥ 0` (both finite) and `certify_every ≥ 1`.
-    pub fn validate(&self) -> Result<(), StabilityError> {
-        if !(self.margin > 0.0 && self.margin.is_finite()) {
-            return Err(StabilityError::InvalidConfig {
-                field: "certified.margin",
-                value: self.margin,
-                reason: "must be positive and finite",
-            });
-        }
-        if !(self.drop_tol >= 0.0 && self.drop_tol.is_finite()) {
-            return Err(StabilityError::InvalidConfig {
-                field: "certified.drop_tol",
-                value: self.drop_tol,
-                reason: "must be non-negative and finite",
-            });
-        }
-        if self.certify_every == 0 {
-            return Err(StabilityError::InvalidConfig {
-                field: "certified.certify_every",
-                value: 0.0,
-                reason: "must be at least 1",
-            });
-        }
-        Ok(())
-    }
-}
+pub use on_bound::{BoundReference, BOUND_MISS, FIRST_BOUND_RUN};
 
 /// The result of one [`CertifiedTracker::update`].
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -192,6 +167,23 @@ pub struct CertifiedState {
     pub tracker: super::lambda_max::TrackerState,
     /// The last anchor.
     pub anchor: Option<Anchor>,
+    /// The reference of the proposals served on the element bound.
+    #[serde(default)]
+    pub bound_reference: Option<BoundReference>,
+    /// Whether the next proposal reads `K_N`.
+    #[serde(default = "yes")]
+    pub band_next: bool,
+    /// Proposals served on the bound before the next on `K_N`.
+    #[serde(default = "first_bound_run")]
+    pub bound_run: u32,
+}
+
+fn first_bound_run() -> u32 {
+    on_bound::FIRST_BOUND_RUN
+}
+
+fn yes() -> bool {
+    true
 }
 
 /// `λmax` of the nodal eq 56 operator by a Rayleigh quotient per step, certified at anchors
@@ -203,6 +195,12 @@ pub struct CertifiedTracker {
     anchor: Option<Anchor>,
     /// Scratch: the pencil bands of an anchor's state (from the stepper's `K_N`).
     pencil: Pencil,
+    /// The reference of the proposals served on the element bound (`on_bound.rs`).
+    bound_reference: Option<BoundReference>,
+    /// Whether the next proposal reads `K_N` ([`Self::wants_nodal_stiffness`]).
+    band_next: bool,
+    /// Proposals served on the bound before the next on `K_N` (`on_bound.rs`).
+    bound_run: u32,
 }
 
 impl Default for CertifiedTracker {
@@ -213,6 +211,9 @@ impl Default for CertifiedTracker {
             tracker: Self::anchor_tracker(LanczosConfig::default()),
             anchor: None,
             pencil: Pencil::default(),
+            bound_reference: None,
+            band_next: true,
+            bound_run: on_bound::FIRST_BOUND_RUN,
         }
     }
 }
@@ -238,6 +239,9 @@ impl CertifiedTracker {
             tracker: Self::anchor_tracker(lanczos),
             anchor: None,
             pencil: Pencil::default(),
+            bound_reference: None,
+            band_next: true,
+            bound_run: on_bound::FIRST_BOUND_RUN,
         })
     }
 
@@ -261,19 +265,47 @@ impl CertifiedTracker {
         CertifiedState {
             tracker: self.tracker.state(),
             anchor: self.anchor.clone(),
+            bound_reference: self.bound_reference.clone(),
+            band_next: self.band_next,
+            bound_run: self.bound_run,
         }
+    }
+
+    /// Whether the next proposal reads `K_N` from the stepper: always, unless proposals
+    /// are being served on the element bound and the next is neither due for an anchor nor
+    /// after a drift of the bound (`on_bound.rs`). The [`super::Stability`] limit passes it
+    /// on to the controller ([`crate::StepLimit::reads_nodal_stiffness`]).
+    pub fn wants_nodal_stiffness(&self) -> bool {
+        !self.config.on_bound || self.band_next
     }
 
     /// Restores a state from [`Self::state`]: the next updates are bit-identical.
     pub fn restore(&mut self, state: CertifiedState) {
         self.tracker.restore(state.tracker);
         self.anchor = state.anchor;
+        self.bound_reference = state.bound_reference;
+        self.band_next = state.band_next;
+        self.bound_run = state.bound_run;
     }
 
     /// `λmax` of the nodal operator of `view` (module docs). `op` is scratch: it is rebuilt
     /// from `view` only when the view carries no `K_N` or an anchor falls back to Lanczos
     /// (and then holds `C` of `view`); anchors on the pencil leave it as it was.
     pub fn update(
+        &mut self,
+        view: &View<'_>,
+        op: &mut NodalOperator,
+    ) -> Result<CertifiedEstimate, StabilityError> {
+        if let Some(served) = self.serve_on_bound(view) {
+            return Ok(served);
+        }
+        let result = self.update_on_operator(view, op)?;
+        self.after_operator(view, result.estimate.lambda_b);
+        Ok(result)
+    }
+
+    /// [`Self::update`] on `K_N` (the stepper's, or assembled from the view's weights).
+    fn update_on_operator(
         &mut self,
         view: &View<'_>,
         op: &mut NodalOperator,

@@ -320,9 +320,20 @@ impl StepLimit for Stability {
         "stability"
     }
 
-    /// The λmax update reads `K_N` from the view when the stepper provides it.
+    /// The λmax update reads `K_N` from the view when the stepper provides it: on every
+    /// state, except that the certified tracker serving on the element bound asks only for
+    /// the states it computes on `K_N` ([`CertifiedTracker::wants_nodal_stiffness`]).
     fn reads_nodal_stiffness(&self) -> bool {
-        true
+        match self.config.tracking {
+            Tracking::Certified(_) => self.certified.wants_nodal_stiffness(),
+            Tracking::Lanczos(_) => true,
+        }
+    }
+
+    /// The certified tracker serving on the element bound reads it
+    /// ([`crate::stability::CertifiedConfig::on_bound`]).
+    fn reads_element_bound(&self) -> bool {
+        matches!(self.config.tracking, Tracking::Certified(c) if c.on_bound)
     }
 
     /// Multiplies the safety factor by `factor` (ignored unless `0 < factor ≤ 1`).
