@@ -115,6 +115,15 @@ impl<'a> ViewWeights<'a> {
         }
     }
 
+    /// The shape of weights the library computes (deferred), `None` for weights handed over
+    /// ready.
+    pub fn shape(&self) -> Option<Shape> {
+        match self.0 {
+            Source::Ready(_) => None,
+            Source::Deferred { shape, .. } => Some(shape),
+        }
+    }
+
     /// The weights (computing them if deferred and not yet computed).
     pub fn get(&self) -> &'a Weights {
         match self.0 {

@@ -107,3 +107,60 @@ fn reference_stepper_restart_is_bit_identical() {
     assert_eq!(bits(a.node_acceleration), bits(b.node_acceleration));
     assert_eq!(a.t.to_bits(), b.t.to_bits());
 }
+
+/// The same with the standard controller's certified tracker serving on the element bound
+/// (`on_bound`): its reference, runs and `K_N` requests are in the checkpoint, and the
+/// restored solver's first state carries the same summary and bound.
+#[test]
+fn restart_serving_on_the_bound_is_bit_identical() {
+    use mpm_dt::mpm::{ReferenceStepper, SolverCheckpoint};
+    use mpm_dt::scenario::Scenario;
+    use mpm_dt::stability::{SoundSpeed, Stability};
+    use mpm_dt::Stepper;
+    let scenario = Scenario::from_json(
+        r#"{"cells": 64, "particles": {"per_cell": 2},
+            "initial": {"standing_wave": {"amplitude": 1e-2, "mode": 1}}}"#,
+    )
+    .unwrap();
+    let config = ControllerConfig::from_value(serde_json::json!({
+        "stability": {"safety": 0.95, "tracking": {"certified": {"on_bound": true}}}
+    }))
+    .unwrap();
+    let mut s = scenario.build().unwrap();
+    let mut c = Controller::standard(config.clone()).unwrap();
+    // Stop between two anchors, on a state served on the bound.
+    let mut steps = 0;
+    while steps < 27 {
+        steps += c.step(&mut s, f64::INFINITY).unwrap().len();
+    }
+    assert!(
+        s.view().nodal_stiffness.is_none(),
+        "a state served on the bound"
+    );
+    let json = serde_json::to_string(&Checkpoint {
+        controller: c.checkpoint(),
+        stepper: s.checkpoint(),
+    })
+    .unwrap();
+    let t_end = s.time() + 60.0 * s.grid().h / scenario.wave_speed();
+    let mut straight = Vec::new();
+    c.run_until(&mut s, t_end, &mut |d| straight.push(d.to_json_line()))
+        .unwrap();
+
+    let cp: Checkpoint<SolverCheckpoint> = serde_json::from_str(&json).unwrap();
+    let mut s2 = ReferenceStepper::from_checkpoint(cp.stepper).unwrap();
+    let standard: Vec<Box<dyn StepLimit>> = vec![
+        Box::new(SoundSpeed::new(config.sound_speed.unwrap()).unwrap()),
+        Box::new(Stability::new(config.stability.unwrap()).unwrap()),
+        Box::new(TemporalError::new(config.temporal.clone()).unwrap()),
+        Box::new(GrowthMonitor::new(config.growth.clone()).unwrap()),
+    ];
+    let mut c2 = Controller::restore(cp.controller, standard).unwrap();
+    let mut restarted = Vec::new();
+    c2.run_until(&mut s2, t_end, &mut |d| restarted.push(d.to_json_line()))
+        .unwrap();
+    assert!(straight.len() > 40);
+    assert_eq!(straight, restarted);
+    let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    assert_eq!(bits(s.view().x), bits(s2.view().x));
+}

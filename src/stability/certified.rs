@@ -75,7 +75,10 @@
 //! (`certify_every`), after `B` has moved by more than [`CertifiedConfig::bound_drift`]
 //! either way, or after a run of proposals on the bound: 4 at first, doubled after each
 //! proposal on `K_N` that the bound predicted (within [`BOUND_MISS`]), halved after one it
-//! did not, at most `certify_every − 1`. A view whose active nodes differ from the
+//! did not, at most `certify_every − 1`. A view without the stepper's bound has it taken
+//! from its own weights when they are the library's GIMP weights (`stability::element_bound`,
+//! the same value bit for bit: a restored run continues as it would have); a view whose
+//! active nodes differ from the
 //! reference's, or without `K_N` when it is needed, is served on `K_N` assembled from its
 //! weights.
 //!

@@ -63,6 +63,7 @@
 pub mod bound58;
 pub mod certificate;
 pub mod certified;
+pub(crate) mod element_bound;
 #[cfg(feature = "reference")]
 pub mod empirical;
 

@@ -26,10 +26,13 @@ pub struct BoundReference {
     pub served: u32,
 }
 
-/// The element bound a view's trusted summary vouches for, when finite and positive.
+/// The element bound of a view, when finite and positive: the one its trusted summary
+/// vouches for, else the library's own from the view's weights (the same value, bit for
+/// bit, for the reference solver; `stability/element_bound.rs`).
 pub(super) fn trusted_bound(view: &View<'_>) -> Option<f64> {
     view.trusted_summary()
         .and_then(|s| s.element_bound)
+        .or_else(|| crate::stability::element_bound::of_view(view))
         .filter(|b| b.is_finite() && *b > 0.0)
 }
 
@@ -62,7 +65,11 @@ impl CertifiedTracker {
         if let Some(r) = self.bound_reference.as_mut() {
             r.served += 1;
         }
-        let c2_ref = view.trusted_summary()?.max_wave_speed_sq;
+        // `max_p E_t/ρ`, the summary's or the scan's (the same bits by the summary's contract).
+        let c2_ref = match view.trusted_summary() {
+            Some(s) => s.max_wave_speed_sq,
+            None => crate::stability::error::check_view_speeds(view).ok()?.0,
+        };
         tracing::trace!(
             bound,
             ratio,
