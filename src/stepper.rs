@@ -218,7 +218,8 @@ where
     /// Asks the stepper to accumulate the nodal stiffness ([`View::nodal_stiffness`]) in
     /// the states it computes from now on (`true`) or to stop (`false`); returns whether it
     /// does. The controller asks when one of its limits reads it
-    /// ([`crate::StepLimit::reads_nodal_stiffness`]). The default does not provide it.
+    /// ([`crate::StepLimit::reads_nodal_stiffness`]), before every step, so a repeated call
+    /// with the same value should cost nothing. The default does not provide it.
     fn provide_nodal_stiffness(&mut self, on: bool) -> bool {
         let _ = on;
         false
@@ -229,16 +230,20 @@ where
     /// committed state when switched on should skip that here). The controller calls it
     /// before every trial with whether its limits' next proposal reads `K_N`, which
     /// changes from step to step when the stability limit serves on the element bound
-    /// ([`crate::stability::CertifiedTracker::wants_nodal_stiffness`]). The default forwards
-    /// to [`Self::provide_nodal_stiffness`].
+    /// ([`crate::stability::CertifiedTracker::wants_nodal_stiffness`]); it calls it only
+    /// when some limit reads the element bound. The default forwards to
+    /// [`Self::provide_nodal_stiffness`], which for a stepper that computes `K_N` for the
+    /// committed state when switched on repeats that work: override it to save it.
     fn provide_nodal_stiffness_on_trials(&mut self, on: bool) -> bool {
         self.provide_nodal_stiffness(on)
     }
 
-    /// Asks the stepper to add the element bound ([`PassSummary::element_bound`]) to the
+    /// Asks the stepper to add the element bound ([`PassSummary::element_bound`], 1D) to the
     /// summaries of the states it computes from now on (`true`) or to stop (`false`);
     /// returns whether it does. The controller asks when one of its limits reads it
-    /// ([`crate::StepLimit::reads_element_bound`]). The default does not provide it.
+    /// ([`crate::StepLimit::reads_element_bound`]: the 1D certified tracker serving on the
+    /// bound). The default does not provide it; the library then takes it from the view's
+    /// weights when they are its own GIMP weights.
     fn provide_element_bound(&mut self, on: bool) -> bool {
         let _ = on;
         false

@@ -84,11 +84,13 @@ fn summary_is_the_librarys_own_numbers() {
     }
 }
 
-/// The controller of these tests: the standard one, serving the stability limit between
-/// its anchors on the element bound (`on_bound`, the default) or on `K_N` at every step.
+/// The controller of these tests: the standard one (its stability safety 0.95 restated, as
+/// an explicit `stability` entry starts from the limit's own default), serving the
+/// stability limit between its anchors on the element bound (`on_bound`) or on `K_N` at
+/// every step (the default).
 fn controller(on_bound: bool) -> Controller {
     let config = ControllerConfig::from_value(serde_json::json!({
-        "stability": {"tracking": {"certified": {"on_bound": on_bound}}}
+        "stability": {"safety": 0.95, "tracking": {"certified": {"on_bound": on_bound}}}
     }))
     .unwrap();
     Controller::standard(config).unwrap()
@@ -140,7 +142,7 @@ fn controlled_runs_decide_the_same_with_and_without_the_summary() {
 /// stepper accumulates `K_N` on one state in 6 or fewer (linear hats take no bound:
 /// every state).
 #[test]
-fn serving_on_the_bound_keeps_the_steps_and_skips_the_stiffness() {
+fn serving_on_the_bound_follows_lambda_and_skips_the_stiffness() {
     for text in SCENARIOS {
         let scenario = Scenario::from_json(text).unwrap();
         let t_end = short_end(&scenario);

@@ -69,7 +69,16 @@ where
         // The pass summary (`crate::pass_summary`); cheap to repeat: a stepper that already
         // provides it just keeps its flag.
         stepper.provide_summary(true);
-        if self.limits.iter().any(|l| l.reads_element_bound()) {
+        // K_N on the committed state when the coming proposal reads it (a stepper that
+        // already has it keeps it; one that switches it on computes it for this state).
+        if self.reads_nodal_stiffness() {
+            stepper.provide_nodal_stiffness(true);
+        }
+        // A limit serving on the element bound reads K_N only on some states: the stepper
+        // is then told before every trial whether the next proposal reads it. Without such
+        // a limit the stepper hears nothing more than the call above.
+        let on_demand = self.limits.iter().any(|l| l.reads_element_bound());
+        if on_demand {
             stepper.provide_element_bound(true);
         }
         let mut last: Option<Decision> = None;
@@ -77,9 +86,9 @@ where
         let mut rejections: u32 = 0;
         loop {
             let attempt = rejections + 1;
-            // K_N on the committed state when the coming proposal reads it (a stepper that
-            // already has it keeps it; one that switches it on computes it for this state).
-            if self.reads_nodal_stiffness() {
+            // A retry proposes on the committed state again, whose K_N the last trial's
+            // request may have skipped.
+            if on_demand && rejections > 0 && self.reads_nodal_stiffness() {
                 stepper.provide_nodal_stiffness(true);
             }
             // 0. The door: the committed view is checked before any limit reads it.
@@ -91,7 +100,9 @@ where
             // end the borrow before the trial.
             drop(view);
             // K_N on the trial's state exactly when the next proposal reads it.
-            stepper.provide_nodal_stiffness_on_trials(self.reads_nodal_stiffness());
+            if on_demand {
+                stepper.provide_nodal_stiffness_on_trials(self.reads_nodal_stiffness());
+            }
             self.add_named_bounds(&mut proposals, retry_cap, t, t_end - t);
             let chosen = self.choose_step(&mut proposals, t, t_end, &mut last)?;
             let dt = chosen.dt;

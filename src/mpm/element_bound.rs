@@ -73,3 +73,36 @@ fn block_bound(b: &BoundInputs<'_>, i: usize) -> f64 {
         stencil_ratio(s, d),
     )
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::scenario::Scenario;
+    use crate::stability::element_bound::of_view;
+    use crate::Stepper;
+
+    /// The bound the pass takes is the library's from the view's weights, bit for bit
+    /// (what lets a restored run, whose first state has no summary, continue as before).
+    #[test]
+    fn the_pass_takes_the_librarys_bound_bit_for_bit() {
+        for text in [
+            r#"{"cells": 301, "particles": {"per_cell": 2}}"#,
+            r#"{"cells": 37, "boundary": "fixed", "material": "neo_hookean",
+                "initial": {"standing_wave": {"amplitude": 0.05, "mode": 0.5}}}"#,
+            r#"{"cells": 4, "particles": {"positions": [0.01, 0.2, 0.33, 0.5, 0.61, 0.9, 0.99]}}"#,
+        ] {
+            let scenario = Scenario::from_json(text).unwrap();
+            let mut s = scenario.build().unwrap();
+            assert!(s.provide_summary(true) && s.provide_element_bound(true));
+            let dt = 0.3 * s.grid().h / scenario.wave_speed();
+            for _ in 0..12 {
+                s.try_step(dt).unwrap();
+                s.accept().unwrap();
+                let view = s.view();
+                let taken = view.summary.and_then(|p| p.element_bound).unwrap();
+                let library = of_view(&view).unwrap();
+                assert!(taken > 0.0 && taken.is_finite(), "{text}: {taken}");
+                assert_eq!(taken.to_bits(), library.to_bits(), "{text}");
+            }
+        }
+    }
+}

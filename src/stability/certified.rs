@@ -74,8 +74,8 @@
 //! [`CertifiedTracker::wants_nodal_stiffness`]) only for the state of the next anchor
 //! (`certify_every`), after `B` has moved by more than [`CertifiedConfig::bound_drift`]
 //! either way, or after a run of proposals on the bound: 4 at first, doubled after each
-//! proposal on `K_N` that the bound predicted (within [`BOUND_MISS`]), halved after one it
-//! did not, at most `certify_every − 1`. A view without the stepper's bound has it taken
+//! proposal on `K_N` whose value was at most [`BOUND_MISS`] (1 %) above the bound's
+//! prediction, halved after one above it, at most `certify_every − 1`. A view without the stepper's bound has it taken
 //! from its own weights when they are the library's GIMP weights (`stability::element_bound`,
 //! the same value bit for bit: a restored run continues as it would have); a view whose
 //! active nodes differ from the
@@ -90,12 +90,15 @@
 //! against a tracker on `K_N` at every step, state by state (`tests/solver_summary.rs`):
 //! within 1 % below and 2 % above on small-amplitude waves, but 10 % below to 14 % above
 //! on a neo-Hookean wave at 20 % strain, where `λmax` moves by up to 16 % in three steps
-//! while `B` stays within 2 % — a `dt` up to 5 % above the quotient's, inside the
+//! while `B` stays within 2 % — a `dt` up to 5.4 % above the quotient's, inside the
 //! [`super::Stability`] safety factor but not within the quotient's 1 %. Hence opt-in. What it
 //! saves is the accumulation of `K_N` (six products and three scattered adds per particle
 //! in the stepper's pass) and the served pass on most steps, against one division per
-//! particle for `B`: on the 10⁵-particle 1D wave a controlled step costs 13–22 % less
-//! (docs/performance.md).
+//! particle for `B`: on the 10⁵-particle 1D wave with the reference solver about 5 % of a
+//! controlled step (`perf` samples; below the wall-clock noise here), with a stepper that
+//! hands over no `K_N` (assembled from the weights on every state otherwise) 19–23 %
+//! (docs/performance.md). On those steps the decision's
+//! `lambda_rayleigh` metric is the last quotient computed, on the reference state.
 //!
 //! **What is and is not guaranteed.** At an anchor the step uses a certified upper bound.
 //! Between anchors (at most `certify_every − 1` proposals) `λ̂` is a Rayleigh quotient times
@@ -174,9 +177,9 @@ pub struct CertifiedState {
     /// The reference of the proposals served on the element bound.
     #[serde(default)]
     pub bound_reference: Option<BoundReference>,
-    /// Whether the next proposal reads `K_N`.
+    /// Whether the next proposal reads `K_N` ([`CertifiedTracker::wants_nodal_stiffness`]).
     #[serde(default = "yes")]
-    pub band_next: bool,
+    pub stiffness_next: bool,
     /// Proposals served on the bound before the next on `K_N`.
     #[serde(default = "first_bound_run")]
     pub bound_run: u32,
@@ -202,7 +205,7 @@ pub struct CertifiedTracker {
     /// The reference of the proposals served on the element bound (`on_bound.rs`).
     bound_reference: Option<BoundReference>,
     /// Whether the next proposal reads `K_N` ([`Self::wants_nodal_stiffness`]).
-    band_next: bool,
+    stiffness_next: bool,
     /// Proposals served on the bound before the next on `K_N` (`on_bound.rs`).
     bound_run: u32,
 }
@@ -216,7 +219,7 @@ impl Default for CertifiedTracker {
             anchor: None,
             pencil: Pencil::default(),
             bound_reference: None,
-            band_next: true,
+            stiffness_next: true,
             bound_run: on_bound::FIRST_BOUND_RUN,
         }
     }
@@ -244,7 +247,7 @@ impl CertifiedTracker {
             anchor: None,
             pencil: Pencil::default(),
             bound_reference: None,
-            band_next: true,
+            stiffness_next: true,
             bound_run: on_bound::FIRST_BOUND_RUN,
         })
     }
@@ -270,7 +273,7 @@ impl CertifiedTracker {
             tracker: self.tracker.state(),
             anchor: self.anchor.clone(),
             bound_reference: self.bound_reference.clone(),
-            band_next: self.band_next,
+            stiffness_next: self.stiffness_next,
             bound_run: self.bound_run,
         }
     }
@@ -280,7 +283,7 @@ impl CertifiedTracker {
     /// after a drift of the bound (`on_bound.rs`). The [`super::Stability`] limit passes it
     /// on to the controller ([`crate::StepLimit::reads_nodal_stiffness`]).
     pub fn wants_nodal_stiffness(&self) -> bool {
-        !self.config.on_bound || self.band_next
+        !self.config.on_bound || self.stiffness_next
     }
 
     /// Restores a state from [`Self::state`]: the next updates are bit-identical.
@@ -288,7 +291,7 @@ impl CertifiedTracker {
         self.tracker.restore(state.tracker);
         self.anchor = state.anchor;
         self.bound_reference = state.bound_reference;
-        self.band_next = state.band_next;
+        self.stiffness_next = state.stiffness_next;
         self.bound_run = state.bound_run;
     }
 

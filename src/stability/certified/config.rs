@@ -28,9 +28,10 @@ pub struct CertifiedConfig {
     /// instead of after the ~100–300 steps the power steps take to localise a Ritz vector
     /// (`stability/localise.rs`; measured: README "Stability").
     pub localise: bool,
-    /// Serve proposals between anchors on the stepper's element bound when its view carries
-    /// one and no `K_N` (default `false`; module docs, "Between anchors on the bound"). The
-    /// tracker then asks for `K_N` only on the states it computes on it. Opt-in: faster on
+    /// Serve proposals between anchors on the element bound when a view carries no `K_N`
+    /// (default `false`; module docs, "Between anchors on the bound"): the stepper's bound
+    /// ([`crate::PassSummary::element_bound`]), or the library's own from the view's GIMP
+    /// weights. The tracker then asks for `K_N` only on the states it computes on it. Opt-in: faster on
     /// smooth problems, less tight on strongly nonlinear ones (measured in the module docs).
     pub on_bound: bool,
     /// Relative move of the element bound since the last proposal computed on `K_N`, either
@@ -52,7 +53,8 @@ impl Default for CertifiedConfig {
 }
 
 impl CertifiedConfig {
-    /// Checks `margin > 0`, `drop_tol ≥ 0` (both finite) and `certify_every ≥ 1`.
+    /// Checks `margin > 0`, `drop_tol ≥ 0`, `bound_drift ≥ 0` (all finite) and
+    /// `certify_every ≥ 1`.
     pub fn validate(&self) -> Result<(), StabilityError> {
         if !(self.margin > 0.0 && self.margin.is_finite()) {
             return Err(StabilityError::InvalidConfig {

@@ -9,7 +9,8 @@ use crate::stepper::View;
 pub const FIRST_BOUND_RUN: u32 = 4;
 
 /// A proposal on `K_N` whose value exceeds the bound's prediction for its state by more
-/// than this relative amount is a miss: the next runs on the bound are halved.
+/// than this relative amount is a miss, which halves the next runs on the bound; any value
+/// up to it (or below the prediction) is a hit, which doubles them.
 pub const BOUND_MISS: f64 = 0.01;
 
 /// What a proposal computed on `K_N` left for the proposals served on the bound: the element
@@ -55,21 +56,22 @@ impl CertifiedTracker {
         if due || reference.served >= self.bound_run || reference.active != view.node_active {
             return None;
         }
+        // `max_p E_t/ρ`, the summary's or the scan's (the same bits by the summary's
+        // contract), before any state changes: a view the scan refuses goes to the operator.
+        let c2_ref = match view.trusted_summary() {
+            Some(s) => s.max_wave_speed_sq,
+            None => crate::stability::error::check_view_speeds(view).ok()?.0,
+        };
         anchor.served = anchor.served.saturating_add(1);
         let ratio = bound / reference.bound;
         let drift = self.config.bound_drift;
         let drifted = !(ratio <= 1.0 + drift && ratio * (1.0 + drift) >= 1.0);
         let run_over = reference.served.saturating_add(1) >= self.bound_run;
-        self.band_next = drifted || run_over || anchor.served.saturating_add(1) >= every;
+        self.stiffness_next = drifted || run_over || anchor.served.saturating_add(1) >= every;
         let lambda = reference_lambda * ratio.max(1.0);
         if let Some(r) = self.bound_reference.as_mut() {
             r.served += 1;
         }
-        // `max_p E_t/ρ`, the summary's or the scan's (the same bits by the summary's contract).
-        let c2_ref = match view.trusted_summary() {
-            Some(s) => s.max_wave_speed_sq,
-            None => crate::stability::error::check_view_speeds(view).ok()?.0,
-        };
         tracing::trace!(
             bound,
             ratio,
@@ -89,7 +91,12 @@ impl CertifiedTracker {
     /// on the bound, a hit doubles them), the reference of the proposals served on the bound
     /// after it (none without a trusted bound), and whether the next one needs `K_N`.
     pub(super) fn after_operator(&mut self, view: &View<'_>, served: f64) {
-        let bound = trusted_bound(view).filter(|_| self.config.on_bound);
+        // Only when serving on the bound: the library's own takes a pass over the weights.
+        let bound = if self.config.on_bound {
+            trusted_bound(view)
+        } else {
+            None
+        };
         let previous = self.bound_reference.take();
         if let (Some(b), Some(r)) = (bound, previous.as_ref().filter(|r| r.served > 0)) {
             let predicted = r.lambda * (b / r.bound).max(1.0);
@@ -121,6 +128,6 @@ impl CertifiedTracker {
             .anchor
             .as_ref()
             .is_none_or(|a| a.served.saturating_add(1) >= every);
-        self.band_next = bound.is_none() || next_due;
+        self.stiffness_next = bound.is_none() || next_due;
     }
 }
