@@ -66,14 +66,14 @@ where
         let step = stepper.step_count();
         let span = tracing::info_span!("step", step, t);
         let _enter = span.enter();
-        // The pass summary (`crate::pass_summary`); cheap to repeat: a stepper that already
-        // provides it just keeps its flag.
-        stepper.provide_summary(true);
-        // K_N on the committed state when the coming proposal reads it (a stepper that
-        // already has it keeps it; one that switches it on computes it for this state).
+        // K_N on the committed state when the coming proposal reads it (cheap to repeat: a
+        // stepper that already has it keeps it; one that switches it on computes it for
+        // this state).
         if self.reads_nodal_stiffness() {
             stepper.provide_nodal_stiffness(true);
         }
+        // The same for the pass summary (`crate::pass_summary`).
+        stepper.provide_summary(true);
         // A limit serving on the element bound reads K_N only on some states: the stepper
         // is then told before every trial whether the next proposal reads it. Without such
         // a limit the stepper hears nothing more than the call above.
