@@ -11,8 +11,11 @@
 //!   Lanczos tracker (cold start), `lambda_max_dense` when the problem is small, and
 //!   `lambda_max_gershgorin`, the rigorous `O(nnz)` upper bound;
 //! * `dt_eq56 = h √(2/(c² λmax))`;
-//! * `dt_full_map` — the exact frozen-particle critical step of the linearised USL map
-//!   (`null` above 120 particles);
+//! * `dt_full_map` — the exact frozen-particle critical step of the linearised USL map,
+//!   reduced to the nodes (one symmetric eigenvalue, matrix-free Lanczos:
+//!   `stability::nodal_full_map`), `full_map_products` its Lanczos products; and
+//!   `dt_full_map_dense`, the same from the dense map, its cross-check (`null` above 120
+//!   particles);
 //! * `dt_controller` — the smaller of what the `Stability` and `SoundSpeed` limits of
 //!   `Controller::standard` (the `ControllerConfig` defaults, or the scenario's `controller`)
 //!   propose for the initial state: the controller's first step before a temporal-error
@@ -45,6 +48,7 @@ mod common;
 use mpm_dt::limits_nd::critical;
 use mpm_dt::limits_nd::full_map::FULL_MAP_LIMIT;
 use mpm_dt::scenario::Scenario;
+use mpm_dt::stability::nodal_full_map::{critical_dt_nodal_1d, NODAL_FULL_MAP_LIMIT};
 use mpm_dt::stability::operator::spectral_norm;
 use mpm_dt::stability::{
     bound58, Bound58Reading, EmpiricalConfig, EmpiricalCritical, Eq56Operator, FullMap,
@@ -101,8 +105,9 @@ fn parse_args() -> Result<Args, String> {
 }
 
 /// The table of a 2D or 3D scenario (`mpm_dt::limits_nd::critical`): `cell_size`, `c_p`,
-/// `dt_sound`, `lambda_max_nodal`, `dt_eq56`, `dt_full_map` (`null` above
-/// `limits_nd::full_map::FULL_MAP_LIMIT` unknowns), `dt_controller` (the smallest proposal
+/// `dt_sound`, `lambda_max_nodal`, `dt_eq56`, `dt_full_map` (from the nodes, `null` above
+/// `limits_nd::critical::NODAL_FULL_MAP_LIMIT` active nodal unknowns), `dt_full_map_dense` (`null`
+/// above `limits_nd::full_map::FULL_MAP_LIMIT` particle unknowns), `dt_controller` (the smallest proposal
 /// of the standard d-dimensional limits for the initial state), `dt_empirical` (bisection,
 /// 4000 steps, amplitude `A`), and `dt_sound_over_critical`: `dt_sound` over the best
 /// critical step known (empirical, else full map, else eq 56) — above 1 the speed-of-sound
@@ -157,6 +162,13 @@ where
         (
             table.dt_full_map.is_none(),
             "dt_full_map",
+            mpm_dt::limits_nd::nodal_full_map::active_unknowns(&view),
+            "active nodal unknowns",
+            critical::NODAL_FULL_MAP_LIMIT,
+        ),
+        (
+            table.dt_full_map_dense.is_none(),
+            "dt_full_map_dense",
             particle_unknowns,
             "particle unknowns",
             FULL_MAP_LIMIT,
@@ -237,12 +249,15 @@ fn run(args: &Args) -> Result<Value, Box<dyn std::error::Error>> {
         dt_eq56,
         "eq 49 and eq 56"
     );
-    let dt_full = if small {
+    let nodal_small = view.node_active.iter().filter(|&&a| a).count() <= NODAL_FULL_MAP_LIMIT;
+    let full = critical_dt_nodal_1d(&view)?.filter(|c| c.converged);
+    let dt_full = full.map(|c| c.dt);
+    let dt_full_dense = if small {
         Some(FullMap::new(&view)?.critical_dt(0.5 * dt_eq56, FullMapConfig::default())?)
     } else {
         None
     };
-    tracing::info!(?dt_full, "full map");
+    tracing::info!(?dt_full, ?dt_full_dense, "full map");
     // The limits as `Controller::standard` builds them from the scenario's config.
     let config = scenario.controller_config()?;
     let p_stab = match config.stability {
@@ -273,6 +288,8 @@ fn run(args: &Args) -> Result<Value, Box<dyn std::error::Error>> {
         "lanczos_applications": est.applications,
         "dt_eq56": dt_eq56,
         "dt_full_map": dt_full,
+        "full_map_products": full.map(|c| c.products),
+        "dt_full_map_dense": dt_full_dense,
         "dt_controller": dt_controller,
         "dt_controller_stability": p_stab.dt,
         "dt_controller_sound_speed": p_sound.dt,
@@ -287,9 +304,16 @@ fn run(args: &Args) -> Result<Value, Box<dyn std::error::Error>> {
     }
     if !small {
         skipped.push(format!(
-            "lambda_max_dense, dt_full_map and bound58's norm_2 and rho above {DENSE_LIMIT} \
+            "lambda_max_dense, dt_full_map_dense and bound58's norm_2 and rho above {DENSE_LIMIT} \
              particles"
         ));
+    }
+    if !nodal_small {
+        skipped.push(format!(
+            "dt_full_map above {NODAL_FULL_MAP_LIMIT} active nodal unknowns"
+        ));
+    } else if dt_full.is_none() {
+        skipped.push("dt_full_map: no result (the Lanczos iteration did not settle)".into());
     }
     let runs = if n > RUN_LIMIT {
         tracing::info!(

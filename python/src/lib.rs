@@ -14,10 +14,11 @@ mod summary;
 
 use arrays::{item, shape_of};
 use errors::state_error;
-use mpm_dt::limits_nd::full_map;
+use mpm_dt::limits_nd::nodal_full_map::critical_dt_nodal;
 use mpm_dt::limits_nd::stiffness::dense_lambda_max;
 use mpm_dt::limits_nd::stiffness::lambda_max;
 use mpm_dt::nd::{Vector, ViewNd};
+use mpm_dt::stability::nodal_full_map::NODAL_FULL_MAP_LIMIT;
 use mpm_dt::{Dim, Dimension};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -46,13 +47,13 @@ fn read<const D: usize>(state: &Bound<'_, PyDict>) -> PyResult<Box<StateNd<D>>> 
     Ok(s)
 }
 
-/// The frozen-particle full map's critical step (`None` above
-/// `full_map::FULL_MAP_LIMIT` unknowns, or when its search brackets none).
-fn full_map_dt<const D: usize>(view: &ViewNd<'_, D>, lambda: f64) -> Option<f64>
-where
-    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
-{
-    full_map::critical_dt(view, (2.0 / lambda).sqrt()).and_then(Result::ok)
+/// The frozen-particle full map's critical step, reduced to the nodes
+/// (`mpm_dt::stability::nodal_full_map`; `None` above `NODAL_FULL_MAP_LIMIT` nodal
+/// unknowns, or when its Lanczos iteration does not settle).
+fn full_map_dt<const D: usize>(view: &ViewNd<'_, D>) -> Option<f64> {
+    critical_dt_nodal(view)
+        .filter(|c| c.converged)
+        .map(|c| c.dt)
 }
 
 /// `(c_p, λmax, λmax dense)` of a view: the largest P-wave speed, `λmax(M⁻¹K)` by Lanczos,
@@ -87,10 +88,7 @@ where
     d.set_item("lambda_max", lambda)?;
     d.set_item("lambda_max_dense", dense)?;
     d.set_item("dt_eq56", (2.0 / lambda).sqrt())?;
-    d.set_item(
-        "dt_full_map",
-        full.then(|| full_map_dt(&view, lambda)).flatten(),
-    )?;
+    d.set_item("dt_full_map", full.then(|| full_map_dt(&view)).flatten())?;
     Ok(d)
 }
 
@@ -106,10 +104,11 @@ where
 /// * ``dt_eq56`` -- ``sqrt(2 / lambda_max)``: a fixed step above it amplifies the top
 ///   mode of the explicit step (no safety factor);
 /// * ``dt_full_map`` -- the critical step of the whole linearised USL/FLIP step
-///   (velocity and stress) with the particles frozen, with ``full_map=True`` on layouts of
-///   at most 400 unknowns (``d + d(d+1)/2`` per particle; else ``None``; it takes
-///   seconds): what a fixed-step run of the
-///   paper's scheme tolerates, 6-10 % above ``dt_eq56`` on typical layouts;
+///   (velocity and stress) with the particles frozen, with ``full_map=True``: what a
+///   fixed-step run of the paper's scheme tolerates, 6-10 % above ``dt_eq56`` on typical
+///   layouts. Reduced exactly to one symmetric eigenvalue on the nodes and found by
+///   Lanczos, on layouts of up to 20 000 active nodal unknowns (``d`` per active node; else ``None``),
+///   in milliseconds to about a second;
 /// * ``c_p``, ``cell_size``, and ``lambda_max_dense`` (the dense eigenvalue, on layouts of
 ///   at most 1000 nodal unknowns; else ``None``).
 ///
@@ -171,9 +170,9 @@ where
         return Ok(e * 2.0 / (dt * dt * lambda));
     }
     // The full map depends on dt and E only through dt·√E (module docs of the function).
-    match full_map_dt(&view, lambda) {
+    match full_map_dt(&view) {
         Some(dt_c) => Ok(e * (dt_c / dt).powi(2)),
-        None => Err(state_error(py, "method=\"full_map\" needs a layout of at most 400 unknowns (d + d(d+1)/2 per particle) whose map has a critical step".into())),
+        None => Err(state_error(py, format!("method=\"full_map\" needs a layout of at most {NODAL_FULL_MAP_LIMIT} active nodal unknowns (d per active node) on which its Lanczos iteration settles"))),
     }
 }
 
@@ -193,8 +192,8 @@ where
 /// another scheme (APIC) or whose particles move far changes it.
 ///
 /// ``method="full_map"`` instead uses the critical step ``dt_c`` of the whole
-/// linearised step with frozen particles (``critical_dt``'s ``dt_full_map``, small layouts
-/// only). Scaling the stress by ``sqrt(E)``, that map depends on ``dt`` and ``E`` only
+/// linearised step with frozen particles (``critical_dt``'s ``dt_full_map``, layouts of up
+/// to 20 000 active nodal unknowns). Scaling the stress by ``sqrt(E)``, that map depends on ``dt`` and ``E`` only
 /// through ``dt sqrt(E)``, so ``E_max = E (dt_c / dt)^2``: the value a bisection on real
 /// runs finds, where eq 56 is 12-20 % lower (conservative).
 #[pyfunction]

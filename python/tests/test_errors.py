@@ -7,6 +7,7 @@ from typing import Any, Callable
 
 import numpy as np
 import pytest
+from conftest import numpy_bar
 
 import mpm_dt
 
@@ -179,6 +180,13 @@ def test_max_stable_modulus_needs_a_positive_step_and_a_known_method(bar: Any) -
         mpm_dt.max_stable_modulus(bar.state(False), 0.0)
     with pytest.raises(mpm_dt.StateError, match="method"):
         mpm_dt.max_stable_modulus(bar.state(False), 0.01, method="guess")
-    # 128 particles x 5 unknowns is above the full map's limit.
-    with pytest.raises(mpm_dt.StateError, match="at most 400 unknowns"):
-        mpm_dt.max_stable_modulus(bar.state(False), 0.01, method="full_map")
+    # The full map from the nodes reaches past the dense map's 400 unknowns: the
+    # 128-particle strip (640) gets it, between eq 56's answer and twice it (the
+    # reduction's bounds, sqrt(2) on the step).
+    e56 = mpm_dt.max_stable_modulus(bar.state(False), 0.01)
+    e_full = mpm_dt.max_stable_modulus(bar.state(False), 0.01, method="full_map")
+    assert e56 < e_full <= 2 * e56
+    # Above 20 000 nodal unknowns (2 600 x 4 periodic cells, 2 per node) it is refused.
+    big = numpy_bar.NumpyBar(cells=2600)
+    with pytest.raises(mpm_dt.StateError, match="at most 20000 active nodal unknowns"):
+        mpm_dt.max_stable_modulus(big.state(False), 0.01, method="full_map")

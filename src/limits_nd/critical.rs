@@ -12,9 +12,12 @@
 //!   [`EMPIRICAL_LIMIT`] particle–node pairs).
 //!
 //! * `dt_full_map` — the frozen-particle critical step of the whole linearised step,
-//!   velocity and stress ([`super::full_map`]), on layouts of at most
-//!   [`super::full_map::FULL_MAP_LIMIT`] unknowns (`None` above, or when its search
-//!   brackets no critical step).
+//!   velocity and stress, reduced to the nodes ([`super::nodal_full_map`],
+//!   [`crate::stability::nodal_full_map`]): one symmetric eigenvalue found by Lanczos, on
+//!   layouts of up to [`NODAL_FULL_MAP_LIMIT`] nodal unknowns;
+//! * `dt_full_map_dense` — the same from the dense map ([`super::full_map`]), its
+//!   cross-check, on layouts of at most [`super::full_map::FULL_MAP_LIMIT`] particle
+//!   unknowns (`None` above, or when its search brackets no critical step).
 
 use super::stiffness::dense_lambda_max;
 pub use super::stiffness::lambda_max;
@@ -25,6 +28,8 @@ use serde::Serialize;
 
 /// Above this many nodal unknowns the dense check is skipped.
 pub const DENSE_LIMIT: usize = 1000;
+
+pub use crate::stability::nodal_full_map::NODAL_FULL_MAP_LIMIT;
 
 /// Above this many particle–node pairs (particles × stencil width) the empirical bisection
 /// is skipped (`dt_empirical = None`): it takes about ten runs of `steps` steps (and the
@@ -46,8 +51,10 @@ pub struct CriticalTable {
     pub lambda_max_dense: Option<f64>,
     /// `√(2/λmax)`.
     pub dt_eq56: f64,
-    /// The frozen-particle full map's critical step, on small layouts (module docs).
+    /// The frozen-particle full map's critical step from the nodes (module docs).
     pub dt_full_map: Option<f64>,
+    /// The same from the dense map, on small layouts (module docs).
+    pub dt_full_map_dense: Option<f64>,
     /// Bisection on real runs, if asked for.
     pub dt_empirical: Option<f64>,
     /// Real runs at steps around `dt_empirical` ([`empirical_scan`], filled in by the
@@ -93,6 +100,11 @@ where
         lambda_max_dense: dense,
         dt_eq56: (2.0 / lambda).sqrt(),
         dt_full_map: alone
+            .then(|| super::nodal_full_map::critical_dt_nodal(&view))
+            .flatten()
+            .filter(|c| c.converged)
+            .map(|c| c.dt),
+        dt_full_map_dense: alone
             .then(|| super::full_map::critical_dt(&view, (2.0 / lambda).sqrt()))
             .flatten()
             .and_then(Result::ok),

@@ -45,6 +45,7 @@ pub mod critical;
 pub mod element_bound;
 pub mod full_map;
 pub mod growth;
+pub mod nodal_full_map;
 pub mod sound_speed;
 pub mod stability;
 mod stability_config;

@@ -73,6 +73,7 @@ pub mod lambda_max;
 pub mod limit;
 mod localise;
 pub mod nodal;
+pub mod nodal_full_map;
 pub mod operator;
 mod power_pass;
 pub mod sound_speed;
