@@ -67,7 +67,7 @@ const ONE_D_ONLY: [(&str, &str); 9] = [
     ),
 ];
 
-const ND_ONLY: [(&str, &str); 14] = [
+const ND_ONLY: [(&str, &str); 15] = [
     (
         r#"{"stability_nd": {"refresh_cells": 0.05}}"#,
         "stability_nd.refresh_cells",
@@ -117,6 +117,10 @@ const ND_ONLY: [(&str, &str); 14] = [
         r#"{"stability_nd": {"bound_drift": -1.0}}"#,
         "stability_nd.bound_drift",
     ),
+    (
+        r#"{"stability_nd": {"full_map": true}}"#,
+        "stability_nd.full_map",
+    ),
     (r#"{"growth": {"energy_tol": 0.01}}"#, "growth.energy_tol"),
 ];
 
@@ -165,6 +169,10 @@ fn out_of_range_stability_nd_fields_name_their_path() {
             "stability_nd.max_iter",
         ),
         (r#"{"growth": {"energy_tol": -1}}"#, "growth.energy_tol"),
+        (
+            r#"{"stability_nd": {"full_map": true, "transfer": {"apic": {"inertia": 0.25}}}}"#,
+            "stability_nd.full_map",
+        ),
     ] {
         match ControllerConfig::from_json(json) {
             Err(ConfigError::OutOfRange { field: f, .. }) => assert_eq!(f, field, "{json}"),
@@ -237,7 +245,7 @@ fn run(c: &ControllerConfig, opt_in: bool, t_end: f64) -> Vec<String> {
 /// off (`bound_drift` −1; with it on, `bound_drift` takes their place), and so does the
 /// motion guard's distance: under the calibrated bound it only says when the generic path
 /// looks at the bound again, which changes the steps only where the bound has risen.
-const STABILITY_CHANGES: [(&str, &str); 14] = [
+const STABILITY_CHANGES: [(&str, &str); 15] = [
     (
         r#"{"refresh_cells": 0.05, "bound_drift": -1.0}"#,
         r#"{"bound_drift": -1.0}"#,
@@ -270,6 +278,7 @@ const STABILITY_CHANGES: [(&str, &str); 14] = [
     ),
     (r#"{"bound_drift": 0.001}"#, "{}"),
     (r#"{"bound_age": 2}"#, "{}"),
+    (r#"{"full_map": true}"#, "{}"),
 ];
 
 #[test]

@@ -224,3 +224,47 @@ fn the_reduction_reaches_layouts_the_dense_map_cannot_take() {
     assert!(nodal.converged);
     assert!(eq56 * (1.0 - 1e-9) <= nodal.dt && nodal.dt <= std::f64::consts::SQRT_2 * eq56);
 }
+
+/// The stability limit on the full map ([`StabilityNdConfig::full_map`]) proposes the
+/// full map's critical step at a refresh: `√(2/(θ*(1 + tol)))` at safety 1, to the
+/// Lanczos tolerance, on a jittered GIMP and B-spline layout, walled and periodic; with it
+/// off, eq 56's.
+#[test]
+fn the_stability_limit_on_the_full_map_proposes_its_critical_step() {
+    use mpm_dt::limits_nd::{StabilityNd, StabilityNdConfig};
+    use mpm_dt::StepLimit;
+    for (shape, boundary) in [
+        (ShapeNd::Gimp, Boundary::Fixed),
+        (ShapeNd::BSpline2, Boundary::Periodic),
+    ] {
+        let s = solver(&Layout::<2> {
+            boundary,
+            cells: [6, 6],
+            per_cell: 2,
+            shape,
+            jitter: 0.4,
+            inclusion: true,
+        });
+        let view = s.view();
+        let exact = critical_dt_nodal(&view).expect("active nodes").dt;
+        let eq56 = (2.0 / lambda_max(&view)).sqrt();
+        let tol = 1e-8;
+        let propose = |full_map: bool| {
+            let config = StabilityNdConfig {
+                safety: 1.0,
+                tol,
+                max_iter: 200,
+                full_map,
+                ..StabilityNdConfig::default()
+            };
+            StabilityNd::<2>::new(config).propose(&view).unwrap().dt
+        };
+        let (on, off) = (propose(true), propose(false));
+        eprintln!(
+            "{shape:?} {boundary:?}: eq56 {eq56:.8}, full map {exact:.8}; proposed {on:.8} on, {off:.8} off"
+        );
+        assert!((on / exact - 1.0).abs() < 1e-6, "{on} vs {exact}");
+        assert!((off / eq56 - 1.0).abs() < 1e-6, "{off} vs {eq56}");
+        assert!(on > 1.03 * off);
+    }
+}

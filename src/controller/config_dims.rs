@@ -144,6 +144,7 @@ fn changed_nd_stability(c: &StabilityNdConfig) -> Option<&'static str> {
             c.product_cost != d.product_cost,
         ),
         ("stability_nd.bound_drift", c.bound_drift != d.bound_drift),
+        ("stability_nd.full_map", c.full_map != d.full_map),
     ]
     .into_iter()
     .find_map(|(field, changed)| changed.then_some(field))

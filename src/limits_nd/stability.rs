@@ -76,6 +76,7 @@
 //! the guard that catches all three: it rejects a step whose energy grows and lowers this
 //! limit's safety for the rest of the run ([`StepLimit::scale_safety`]).
 
+mod full_map_gain;
 mod guard;
 mod guard_scan;
 
@@ -121,7 +122,8 @@ pub struct StabilityNd<const D: usize> {
     diag_ref: f64,
     /// Growth of `max diag(A)` accepted without a refresh since the last one (≥ 1).
     diag_growth: f64,
-    /// `1 + p` of the scheme's transfer on the tracked top mode (1 for FLIP).
+    /// `1 + p` of the scheme's transfer on the tracked top mode (1 for FLIP; `λmax/λ*`
+    /// with [`StabilityNdConfig::full_map`]).
     gain: f64,
     age: u32,
     refreshes: u64,
@@ -244,6 +246,7 @@ impl<const D: usize> StabilityNd<D> {
             });
         }
         self.gain = match self.config.transfer {
+            TransferNd::Flip if self.config.full_map => self.full_map_gain(view, &r),
             TransferNd::Flip => 1.0,
             TransferNd::Apic { inertia } => apic_gain(view, &space, &r.vector, inertia),
         };
@@ -430,7 +433,7 @@ impl<const D: usize> StabilityNd<D> {
             );
         }
         metrics.insert(crate::controller::metric::LAMBDA_MAX.into(), lambda);
-        if self.config.transfer != TransferNd::Flip {
+        if self.config.transfer != TransferNd::Flip || self.config.full_map {
             metrics.insert("transfer_gain".into(), self.gain);
         }
         metrics

@@ -205,12 +205,33 @@ pub fn nodal_critical_dt(
     pencil: &dyn NodalPencil,
     settings: NodalLanczos,
 ) -> Option<NodalCritical> {
+    nodal_critical_dt_from(pencil, None, settings)
+}
+
+/// [`nodal_critical_dt`] warm-started from `start` (one value per nodal component, as the
+/// pencil's vectors; read on the active components), nudged by a tenth of the fixed start
+/// so that it is never orthogonal to the top mode. The stability limit starts it from eq
+/// 56's Ritz vector ([`crate::limits_nd::StabilityNdConfig::full_map`]).
+pub fn nodal_critical_dt_from(
+    pencil: &dyn NodalPencil,
+    start: Option<&[f64]>,
+    settings: NodalLanczos,
+) -> Option<NodalCritical> {
     let mut active = Active::new(pencil);
     let n = active.len();
     if n == 0 {
         return None;
     }
     let mut q = start_vector(n);
+    if let Some(start) = start.filter(|s| s.len() == pencil.len()) {
+        let warm: Vec<f64> = active.comps.iter().map(|&k| start[k]).collect();
+        let (w, f) = (dot(&warm, &warm).sqrt(), dot(&q, &q).sqrt());
+        if w > 0.0 && w.is_finite() {
+            q.iter_mut()
+                .zip(&warm)
+                .for_each(|(q, x)| *q = x / w + 0.1 * *q / f);
+        }
+    }
     let mut bq = vec![0.0; n];
     active.apply(false, &q, &mut bq);
     let norm = dot(&q, &bq).sqrt();
