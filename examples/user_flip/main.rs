@@ -3,7 +3,7 @@
 //! rule of thumb `dt = 0.4·h/c_p` they would otherwise take.
 //!
 //! ```text
-//! cargo run --release --example user_flip -- [--scene block|disks] [--generic] [--find-failure] [--repeat N]
+//! cargo run --release --example user_flip -- [--scene block|disks] [--generic] [--full-map] [--find-failure] [--repeat N]
 //! ```
 //!
 //! * `block`: a 0.4 × 0.4 block (2×2 particles per cell, 128² cells, ~10⁴ particles)
@@ -17,7 +17,8 @@
 //! the limits make their own passes. `--find-failure` bisects the fixed step at which the
 //! scene blows up (non-finite values, a particle through a wall, `det F ≤ 0`, or energy
 //! above 10× its start) and compares the controller's largest step with it. `--repeat N`
-//! (default 3) times the rule and the controller `N` times, interleaved.
+//! (default 3) times the rule and the controller `N` times, interleaved. `--full-map`
+//! sets `stability_nd.full_map` (the limit on the whole linearised FLIP step).
 
 #[path = "../common/repeats.rs"]
 mod repeats;
@@ -36,6 +37,8 @@ use std::process::ExitCode;
 struct Scene {
     disks: bool,
     opt_in: bool,
+    /// `stability_nd.full_map`: the limit on the whole linearised FLIP step.
+    full_map: bool,
 }
 
 impl Scene {
@@ -124,7 +127,8 @@ fn run_fixed(scene: Scene, dt: f64) -> Run {
 /// The controlled run: standard limits, default config.
 fn run_controlled(scene: Scene) -> (Run, String) {
     let mut s = scene.build(scene.opt_in);
-    let config = ControllerConfig::default();
+    let mut config = ControllerConfig::default();
+    config.stability_nd.full_map = scene.full_map;
     let gravity = Vector::<2>::new(scene.gravity()[0], scene.gravity()[1]);
     let limits = standard_limits::<2>(&config, gravity);
     let started = std::time::Instant::now();
@@ -197,6 +201,7 @@ fn parse() -> Result<(Scene, bool, usize), String> {
     let mut scene = Scene {
         disks: false,
         opt_in: true,
+        full_map: false,
     };
     let (mut failure, mut repeat) = (false, 3);
     let mut args = std::env::args().skip(1);
@@ -208,6 +213,7 @@ fn parse() -> Result<(Scene, bool, usize), String> {
                 other => return Err(format!("--scene: block or disks, not {other:?}")),
             },
             "--generic" => scene.opt_in = false,
+            "--full-map" => scene.full_map = true,
             "--find-failure" => failure = true,
             "--repeat" => repeat = repeats::parse_repeat(args.next())?,
             other => return Err(format!("unknown argument {other}")),
@@ -220,7 +226,7 @@ fn main() -> ExitCode {
     let (scene, failure, repeat) = match parse() {
         Ok(p) => p,
         Err(e) => {
-            eprintln!("error: {e}\nusage: user_flip [--scene block|disks] [--generic] [--find-failure] [--repeat N]");
+            eprintln!("error: {e}\nusage: user_flip [--scene block|disks] [--generic] [--full-map] [--find-failure] [--repeat N]");
             return ExitCode::from(2);
         }
     };

@@ -64,7 +64,7 @@ pub use one_d::{critical_dt_nodal_1d, NodalPencil1d};
 /// reduction: its Lanczos keeps two vectors of this size per iteration (up to 400), and on
 /// the flat top of a large uniform layout's spectrum (a 1D bar of 5·10⁴ cells) 400
 /// iterations do not settle. Within it, layouts of 10⁴–3·10⁵ particle unknowns take
-/// 0.02–1.2 s (docs/design.md, "Verification tools").
+/// 0.02–1.2 s (docs/design.md, "The full map from the nodes").
 pub const NODAL_FULL_MAP_LIMIT: usize = 20_000;
 
 /// The reduced problem's operators on the nodal components, scaled by `M^{-1/2}`: vectors
