@@ -48,7 +48,9 @@ mod common;
 use mpm_dt::limits_nd::critical;
 use mpm_dt::limits_nd::full_map::FULL_MAP_LIMIT;
 use mpm_dt::scenario::Scenario;
-use mpm_dt::stability::nodal_full_map::{critical_dt_nodal_1d, NODAL_FULL_MAP_LIMIT};
+use mpm_dt::stability::nodal_full_map::{
+    critical_dt_nodal_1d, NodalCritical, NODAL_FULL_MAP_LIMIT,
+};
 use mpm_dt::stability::operator::spectral_norm;
 use mpm_dt::stability::{
     bound58, Bound58Reading, EmpiricalConfig, EmpiricalCritical, Eq56Operator, FullMap,
@@ -138,8 +140,9 @@ where
         .unwrap_or(table.dt_eq56);
     let ratio = table.dt_sound / best_known;
     let mut out = serde_json::to_value(&table)?;
-    // Why a column is `null`: the size limit of its small-problem tool, or the tool gave no
-    // result (the dense eigensolver or the full map's search failed; its error is not kept).
+    // Why a column is `null`: the size limit of its tool, or the tool gave no result (the
+    // dense eigensolver or the dense map's search failed, or the full map's Lanczos
+    // iteration did not settle; the error is not kept).
     let unknowns = view.n_nodes() * D;
     let particle_unknowns = view.n_particles() * (D + D * (D + 1) / 2);
     let pairs = view.n_particles() * view.weights.width();
@@ -249,15 +252,8 @@ fn run(args: &Args) -> Result<Value, Box<dyn std::error::Error>> {
         dt_eq56,
         "eq 49 and eq 56"
     );
-    let nodal_small = view.node_active.iter().filter(|&&a| a).count() <= NODAL_FULL_MAP_LIMIT;
-    let full = critical_dt_nodal_1d(&view)?.filter(|c| c.converged);
+    let (full, dt_full_dense, full_skipped) = full_map_1d(&view, dt_eq56, small)?;
     let dt_full = full.map(|c| c.dt);
-    let dt_full_dense = if small {
-        Some(FullMap::new(&view)?.critical_dt(0.5 * dt_eq56, FullMapConfig::default())?)
-    } else {
-        None
-    };
-    tracing::info!(?dt_full, ?dt_full_dense, "full map");
     // The limits as `Controller::standard` builds them from the scenario's config.
     let config = scenario.controller_config()?;
     let p_stab = match config.stability {
@@ -308,13 +304,7 @@ fn run(args: &Args) -> Result<Value, Box<dyn std::error::Error>> {
              particles"
         ));
     }
-    if !nodal_small {
-        skipped.push(format!(
-            "dt_full_map above {NODAL_FULL_MAP_LIMIT} active nodal unknowns"
-        ));
-    } else if dt_full.is_none() {
-        skipped.push("dt_full_map: no result (the Lanczos iteration did not settle)".into());
-    }
+    skipped.extend(full_skipped);
     let runs = if n > RUN_LIMIT {
         tracing::info!(
             n,
@@ -351,6 +341,34 @@ fn run(args: &Args) -> Result<Value, Box<dyn std::error::Error>> {
         table["skipped"] = json!(skipped.join("; "));
     }
     Ok(table)
+}
+
+/// The full map of a 1D state: from the nodes (`None` above the reduction's limit or when
+/// its Lanczos iteration does not settle), the dense cross-check on `small` layouts, and
+/// why the former is `null` when it is.
+fn full_map_1d(
+    view: &mpm_dt::View<'_>,
+    dt_eq56: f64,
+    small: bool,
+) -> Result<(Option<NodalCritical>, Option<f64>, Option<String>), Box<dyn std::error::Error>> {
+    let nodal_small = view.node_active.iter().filter(|&&a| a).count() <= NODAL_FULL_MAP_LIMIT;
+    let full = critical_dt_nodal_1d(view)?.filter(|c| c.converged);
+    let dense = if small {
+        Some(FullMap::new(view)?.critical_dt(0.5 * dt_eq56, FullMapConfig::default())?)
+    } else {
+        None
+    };
+    tracing::info!(dt_full = ?full.map(|c| c.dt), ?dense, "full map");
+    let skipped = match (nodal_small, full) {
+        (false, _) => Some(format!(
+            "dt_full_map above {NODAL_FULL_MAP_LIMIT} active nodal unknowns"
+        )),
+        (true, None) => {
+            Some("dt_full_map: no result (the Lanczos iteration did not settle)".into())
+        }
+        (true, Some(_)) => None,
+    };
+    Ok((full, dense, skipped))
 }
 
 /// The eq 58 rows, the bisection and the monotonicity scan around its answer.

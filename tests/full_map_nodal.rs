@@ -21,19 +21,9 @@ fn material(e: f64, nu: f64) -> MaterialNd {
     }
 }
 
-/// A seeded jitter of up to `amp` of a particle spacing per axis.
-fn jitter<const D: usize>(particles: &mut ParticlesNd<D>, amp: f64, seed: u64) {
-    let mut s: u64 = seed;
-    for p in 0..particles.len() {
-        for a in 0..D {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            let u = (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
-            particles.x[p][a] += amp * particles.domain[p][a] * u;
-        }
-    }
-}
+#[path = "common/jitter.rs"]
+mod jitter;
+use jitter::jitter;
 
 struct Layout<const D: usize> {
     boundary: Boundary,
@@ -267,4 +257,43 @@ fn the_stability_limit_on_the_full_map_proposes_its_critical_step() {
         assert!((off / eq56 - 1.0).abs() < 1e-6, "{off} vs {eq56}");
         assert!(on > 1.03 * off);
     }
+}
+
+/// On the raw element bound (bound mode) the full map's gain is not taken: the bound
+/// certifies eq 56's step, so the proposals there are the same with the setting on or off,
+/// while the refresh's proposal is the full map's.
+#[test]
+fn proposals_on_the_raw_bound_do_not_take_the_full_maps_gain() {
+    use mpm_dt::limits_nd::{StabilityNd, StabilityNdConfig};
+    use mpm_dt::StepLimit;
+    let s = solver(&Layout::<2> {
+        boundary: Boundary::Periodic,
+        cells: [6, 6],
+        per_cell: 2,
+        shape: ShapeNd::Gimp,
+        jitter: 0.4,
+        inclusion: false,
+    });
+    let view = s.view();
+    let proposals = |full_map: bool| {
+        let config = StabilityNdConfig {
+            bound_drift: -1.0,
+            bound_slack: 100.0,
+            full_map,
+            ..StabilityNdConfig::default()
+        };
+        let mut limit = StabilityNd::<2>::new(config);
+        let first = limit.propose(&view).unwrap();
+        let second = limit.propose(&view).unwrap();
+        let on_bound = second.metrics.contains_key("bound_proposals");
+        (first.dt, second.dt, on_bound)
+    };
+    let (on, off) = (proposals(true), proposals(false));
+    eprintln!("full map on: {on:?}; off: {off:?}");
+    assert!(on.2 && off.2, "the second proposal is on the bound");
+    assert!(
+        on.0 > 1.03 * off.0,
+        "the refresh's proposal is the full map's"
+    );
+    assert_eq!(on.1, off.1, "on the bound the same step");
 }

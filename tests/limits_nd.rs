@@ -16,19 +16,9 @@ fn material(nu: f64) -> MaterialNd {
     }
 }
 
-/// A seeded jitter of up to `amp` of a particle spacing per axis.
-fn jitter<const D: usize>(particles: &mut ParticlesNd<D>, amp: f64) {
-    let mut s: u64 = 12345;
-    for p in 0..particles.len() {
-        for a in 0..D {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            let u = (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
-            particles.x[p][a] += amp * particles.domain[p][a] * u;
-        }
-    }
-}
+#[path = "common/jitter.rs"]
+mod jitter;
+use jitter::jitter;
 
 fn solver<const D: usize>(
     cells: [usize; D],
@@ -41,7 +31,7 @@ fn solver<const D: usize>(
     let grid = GridNd::<D>::new([Boundary::Periodic; D], cells, lengths);
     let mut particles = ParticlesNd::uniform(&grid, [2; D], 1.0, material(nu));
     if jittered {
-        jitter(&mut particles, 0.4);
+        jitter(&mut particles, 0.4, 12345);
     }
     if inclusion {
         // The particles in the first cell of every axis are 10× stiffer.
@@ -242,7 +232,7 @@ fn eq56_full_map_and_empirical_steps_are_ordered_in_2d_and_3d() {
     // 3D at one particle per cell (the map's size grows as 9 unknowns a particle).
     let grid = GridNd::<3>::new([Boundary::Periodic; 3], [3; 3], [1.0; 3]);
     let mut particles = ParticlesNd::uniform(&grid, [1; 3], 1.0, material(0.3));
-    jitter(&mut particles, 0.3);
+    jitter(&mut particles, 0.3, 12345);
     // (At one particle per cell uGIMP with its full-cell domain is the quadratic B-spline.)
     for shape in [ShapeNd::Gimp, ShapeNd::Linear] {
         let s =

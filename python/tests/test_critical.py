@@ -81,7 +81,7 @@ def test_max_stable_modulus_matches_bisection_on_real_runs() -> None:
 
 
 def test_eq56_modulus_on_a_larger_layout_is_conservative_within_20_percent() -> None:
-    # 128 particles: 640 unknowns, above what a dense full map was assembled for.
+    # 128 particles: 640 unknowns of the particle state; the full map from the nodes.
     dt, cells = 0.01, 8
     state = numpy_bar.NumpyBar(cells=cells).state(False)
     e_eq56 = mpm_dt.max_stable_modulus(state, dt)

@@ -245,11 +245,12 @@ impl<const D: usize> StabilityNd<D> {
                 ),
             });
         }
-        self.gain = match self.config.transfer {
+        let (gain, extra_products) = match self.config.transfer {
             TransferNd::Flip if self.config.full_map => self.full_map_gain(view, &r),
-            TransferNd::Flip => 1.0,
-            TransferNd::Apic { inertia } => apic_gain(view, &space, &r.vector, inertia),
+            TransferNd::Flip => (1.0, 0),
+            TransferNd::Apic { inertia } => (apic_gain(view, &space, &r.vector, inertia), 0),
         };
+        self.gain = gain;
         self.ritz = r.vector;
         self.store_references(view);
         self.mass_ref = m_min;
@@ -258,7 +259,7 @@ impl<const D: usize> StabilityNd<D> {
         self.age = 0;
         self.refreshes += 1;
         self.applications += r.applications as u64;
-        self.last_products = warm.then_some(r.applications as u64);
+        self.last_products = warm.then_some(r.applications as u64 + extra_products);
         self.lambda = Some(lambda);
         let threshold = self.bound_threshold(view);
         let look = bound.is_some()
@@ -456,16 +457,19 @@ where
     }
 
     fn propose(&mut self, state: &ViewNd<'_, D>) -> Result<Proposal, LimitError> {
-        let (lambda, refreshed) = match self.bound_proposal(state) {
+        let (lambda, refreshed, on_bound) = match self.bound_proposal(state) {
             Some(bound) => {
                 self.tracking.bound_proposals += 1;
-                (bound, false)
+                (bound, false, true)
             }
-            None => self.tracked_lambda(state)?,
+            None => {
+                let (lambda, refreshed) = self.tracked_lambda(state)?;
+                (lambda, refreshed, false)
+            }
         };
         self.age += 1;
         Ok(Proposal {
-            dt: self.safety * (2.0 * self.gain / lambda).sqrt(),
+            dt: self.safety * (2.0 * self.proposal_gain(on_bound) / lambda).sqrt(),
             metrics: self.proposal_metrics(lambda, refreshed),
         })
     }

@@ -66,9 +66,10 @@ pub struct StabilityNdConfig {
     /// Propose from the critical step of the whole linearised FLIP step instead of its
     /// stress part (default `false`): `dt = safety · √(2/λ*)`, `λ* = λmax(A_s(I − Q_s/2))`
     /// ([`crate::stability::nodal_full_map`]), which is 1–√2 times eq 56's step (measured
-    /// 1.04–1.10 on the scenarios). At every Lanczos refresh a second Lanczos run in the
+    /// 1.04–1.10 on the scenarios, 1.0005–1.003 at a light node). At every Lanczos refresh
+    /// a second Lanczos run in the
     /// `I − Q_s/2` inner product, warm-started from eq 56's Ritz vector, gives
-    /// `gain = λmax/λ* ∈ [1, 2]`, and the step is `safety·√(2·gain/λ)` until the next
+    /// `gain = λmax/λ*` (at most 2), and the step is `safety·√(2·gain/λ)` until the next
     /// refresh ([`crate::limits_nd::stability`]). FLIP only (the APIC transfer has a
     /// map of its own: an error); on a decomposed grid the gain stays 1 (eq 56).
     pub full_map: bool,

@@ -34,13 +34,16 @@
 //! and the first of them is `dt_c = √(2/λ*)`, `λ* = λmax(A (I − P/2))`. `A (I − P/2)` is
 //! similar to `A_s (I − Q_s/2)` with `A_s = M^{-1/2} K M^{-1/2}` (eq 56's operator) and
 //! `Q_s = M^{-1/2} Q M^{-1/2}`, and `0 ≤ Q ≤ M` (`M − Q` is a weighted graph Laplacian:
-//! the rows of `Q` sum to the lumped masses), so `B = I − Q_s/2` is symmetric positive
+//! the rows of `Q` sum to the lumped masses — for non-negative weights that form a
+//! partition of unity and nodal masses `m_i = Σ_p S_ip m_p`; on a view that breaks this the
+//! iteration returns no answer), so `B = I − Q_s/2` is symmetric positive
 //! definite and `A_s B` is self-adjoint in the `B` inner product: its eigenvalues are real
 //! and non-negative, and Lanczos in that inner product finds `λ*` from products with `A_s`
 //! and `Q_s` alone, each one pass over the particles' weights.
 //!
 //! With `Q = 0` (no coupling through the particle velocities) this is eq 56's `√(2/λmax)`;
-//! with `Q_s = I` (one particle per node, the consistent mass equal to the lumped one) it
+//! with `Q_s = I` (each particle on a node of its own, weight 1 there: the consistent mass
+//! equal to the lumped one) it
 //! is `√(4/λmax)`, the leapfrog limit. `Q` lies between: the full map's critical step is
 //! between eq 56's and `√2` times it.
 //!
@@ -61,10 +64,11 @@ mod one_d;
 pub use one_d::{critical_dt_nodal_1d, NodalPencil1d};
 
 /// Above this many active nodal unknowns (`d` per active node) the critical-step tools skip the
-/// reduction: its Lanczos keeps two vectors of this size per iteration (up to 400), and on
+/// reduction: its Lanczos keeps two vectors of this size per iteration (up to 400: 128 MB
+/// at the limit), and on
 /// the flat top of a large uniform layout's spectrum (a 1D bar of 5·10⁴ cells) 400
 /// iterations do not settle. Within it, layouts of 10⁴–3·10⁵ particle unknowns take
-/// 0.02–1.2 s (docs/design.md, "The full map from the nodes").
+/// 0.02–1.2 s (measured; docs/design.md, "The full map from the nodes").
 pub const NODAL_FULL_MAP_LIMIT: usize = 20_000;
 
 /// The reduced problem's operators on the nodal components, scaled by `M^{-1/2}`: vectors
@@ -107,8 +111,9 @@ pub struct NodalLanczos {
     /// Stop when the residual bound is below `tol · λ*` (default `1e-10`).
     pub tol: f64,
     /// Or stop when the largest Ritz value moved by less than `settle · λ*` in each of
-    /// three iterations running (default `1e-12`): on the clustered top of a uniform
-    /// layout's spectrum the value converges long before the residual bound does.
+    /// three evaluations running (default `1e-12`; evaluated every iteration for the first
+    /// 32, then every fourth): on the clustered top of a uniform layout's spectrum the
+    /// value converges long before the residual bound does.
     pub settle: f64,
     /// Most iterations (default 400); each keeps two nodal vectors.
     pub max_iter: usize,
@@ -257,18 +262,33 @@ pub fn nodal_critical_dt_from(
             }
         }
         active.apply(false, &r, &mut br);
-        let b = dot(&r, &br).max(0.0).sqrt();
+        // `rᵀBr ≥ rᵀr/2` when `0 ≤ Q ≤ M` (module docs); a negative or non-finite value
+        // means the weights or nodal masses break it: no answer rather than a wrong one.
+        let rbr = dot(&r, &br);
+        if !rbr.is_finite() || rbr < 0.25 * dot(&r, &r) {
+            return None;
+        }
+        let b = rbr.sqrt();
+        let products = j + 1;
+        // The Ritz value costs a dense eigenproblem of the iteration's size: every
+        // iteration for the first 32, then every fourth (and at the end).
+        let exhausted = b <= settings.tol * previous.abs();
+        if j >= 32 && j % 4 != 3 && products < max_iter && !exhausted {
+            beta.push(b);
+            basis.push(r.iter().map(|x| x / b).collect());
+            b_basis.push(br.iter().map(|x| x / b).collect());
+            continue;
+        }
         let (theta, y) = top_ritz(&alpha, &beta);
         let residual = b * y.last().copied().unwrap_or(0.0).abs();
-        let products = j + 1;
         settled_runs = match (theta - previous).abs() <= settings.settle * theta.abs() {
             true => settled_runs + 1,
             false => 0,
         };
         previous = theta;
         let converged = residual <= settings.tol * theta.abs() || settled_runs >= 3;
-        // An exhausted Krylov space (`b = 0`) holds an exact invariant subspace.
-        let exhausted = !(b > settings.tol * theta.abs() && b.is_finite());
+        // An exhausted Krylov space (`b` ≈ 0) holds an exact invariant subspace.
+        let exhausted = b <= settings.tol * theta.abs();
         if converged || exhausted || products == max_iter {
             return (theta > 0.0 && theta.is_finite()).then(|| NodalCritical {
                 lambda: theta,

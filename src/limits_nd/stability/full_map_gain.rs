@@ -6,16 +6,26 @@
 //! dt Σ_i S_ip a_i`, which feeds the next step's nodal velocity through the consistent
 //! mass `Q = Sᵀ diag(m_p) S`; its critical step is `√(2/λ*)`, `λ* = λmax(A_s(I − Q_s/2))`
 //! ([`crate::stability::nodal_full_map`]), between eq 56's and `√2` times it, and equal to
-//! the empirical blow-up step of real runs within 0.25 % on the scenarios where that was
-//! measured (docs/design.md, "The full map from the nodes").
+//! the empirical blow-up step of real runs within 0.23 % below it on the scenarios where
+//! that was measured, except a light node's 2D layout (0.57 % above; docs/design.md, "The
+//! full map from the nodes").
 //!
 //! At a refresh the limit has eq 56's Lanczos value `θ` and Ritz vector; a second Lanczos
 //! run, in the `I − Q_s/2` inner product and warm-started from that vector, gives the
-//! Ritz value `θ*` of `A_s(I − Q_s/2)`, and the limit keeps `gain = θ/θ*` (clamped to
-//! `[0.5, 2]`: `λ*` lies in `[λmax/2, λmax]`). The proposal `safety·√(2·gain/λ)` is then
-//! `safety·√(2/(θ*(1 + tol)·margin))` at the refresh, and between refreshes `λ` is tracked
-//! as before (the calibrated bound, the moduli's growth) with the gain held. `θ*` is a
-//! Ritz value, a lower bound on `λ*` that its `(1 + tol)` covers as for eq 56's value.
+//! Ritz value `θ*` of `A_s(I − Q_s/2)`, and the limit keeps `gain = θ/θ*` (at most 2:
+//! `λ*` ≥ `λmax/2`; below 1 where the second run found a mode above eq 56's Ritz value,
+//! which then shortens the step). The proposal `safety·√(2·gain/λ)` is then
+//! `safety·√(2/(θ*(1 + tol)·margin))` at the refresh. `θ*` is a Ritz value, a lower bound
+//! on `λ*` that its `(1 + tol)` covers as for eq 56's value; a second run that does not
+//! converge within `max_iter` leaves the gain at 1 (eq 56).
+//!
+//! **Between refreshes** the tracked `λ` is scaled as before (the calibrated bound's rise,
+//! the moduli's growth, the light-node diagonal) with the gain held — an interpretation,
+//! as for the APIC gain: a new top mode with a smaller ratio (a light node, whose
+//! consistent mass is small, has a ratio near 1) is stepped on with the old gain until the
+//! next refresh, and the growth monitor is the net. Proposals on the raw element bound
+//! (bound mode) do not take the gain: `B ≥ λmax` certifies eq 56's step, not the full
+//! map's.
 //!
 //! Products: each iteration of the second run is one product with `K` and one with `Q`
 //! (about as costly: both form every particle's weight row). `lanczos_applications`
@@ -29,10 +39,12 @@ use crate::stability::nodal_full_map::{nodal_critical_dt_from, NodalLanczos};
 
 impl<const D: usize> StabilityNd<D> {
     /// `gain = θ/θ*` of the state `view` at a refresh whose eq 56 Lanczos gave `r` (module
-    /// docs); 1 (eq 56) on a decomposed grid or when the second run finds no value.
-    pub(super) fn full_map_gain(&mut self, view: &ViewNd<'_, D>, r: &LanczosResult) -> f64 {
+    /// docs); 1 (eq 56) on a decomposed grid or when the second run finds no converged
+    /// value. Also the second run's cost in eq 56's products (each iteration about two),
+    /// for the bound's cost model ([`crate::limits_nd::bound_tracking`]).
+    pub(super) fn full_map_gain(&mut self, view: &ViewNd<'_, D>, r: &LanczosResult) -> (f64, u64) {
         if view.split.is_some() {
-            return 1.0;
+            return (1.0, 0);
         }
         let settings = NodalLanczos {
             tol: self.config.tol,
@@ -41,11 +53,25 @@ impl<const D: usize> StabilityNd<D> {
         };
         let pencil = NodalPencilNd::new(view);
         match nodal_critical_dt_from(&pencil, Some(&r.vector), settings) {
-            Some(c) if c.lambda > 0.0 && r.lambda > 0.0 => {
+            Some(c) => {
                 self.applications += c.products as u64;
-                (r.lambda / c.lambda).clamp(0.5, 2.0)
+                let gain = match c.converged && c.lambda > 0.0 && r.lambda > 0.0 {
+                    true => (r.lambda / c.lambda).min(2.0),
+                    false => 1.0,
+                };
+                (gain, 2 * c.products as u64)
             }
-            _ => 1.0,
+            None => (1.0, 0),
+        }
+    }
+
+    /// The gain a proposal takes: the held one, except that a proposal on the raw element
+    /// bound takes at most 1 under the full map (the bound certifies eq 56's step, not the
+    /// full map's; module docs). The APIC gain is taken on the bound as before.
+    pub(super) fn proposal_gain(&self, on_bound: bool) -> f64 {
+        match on_bound && self.config.full_map {
+            true => self.gain.min(1.0),
+            false => self.gain,
         }
     }
 }
