@@ -343,6 +343,9 @@ fn run(args: &Args) -> Result<Value, Box<dyn std::error::Error>> {
     Ok(table)
 }
 
+/// The nodal full map, the dense one and why the former is `null` ([`full_map_1d`]).
+type FullMap1d = (Option<NodalCritical>, Option<f64>, Option<String>);
+
 /// The full map of a 1D state: from the nodes (`None` above the reduction's limit or when
 /// its Lanczos iteration does not settle), the dense cross-check on `small` layouts, and
 /// why the former is `null` when it is.
@@ -350,7 +353,7 @@ fn full_map_1d(
     view: &mpm_dt::View<'_>,
     dt_eq56: f64,
     small: bool,
-) -> Result<(Option<NodalCritical>, Option<f64>, Option<String>), Box<dyn std::error::Error>> {
+) -> Result<FullMap1d, Box<dyn std::error::Error>> {
     let nodal_small = view.node_active.iter().filter(|&&a| a).count() <= NODAL_FULL_MAP_LIMIT;
     let full = critical_dt_nodal_1d(view)?.filter(|c| c.converged);
     let dense = if small {
