@@ -233,13 +233,23 @@ impl Scenario {
     /// building a scenario in code).
     pub fn validate(&self) -> Result<(), ScenarioError> {
         self.controller_config()?;
-        let positive = |field: &'static str, v: f64| {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
-                Err(invalid(field, format!("{v} must be positive and finite")))
-            }
-        };
+        self.validate_cells()?;
+        positive("length", self.length)?;
+        positive("youngs_modulus", self.youngs_modulus)?;
+        positive("density", self.density)?;
+        positive("t_end", self.t_end)?;
+        let n = self.validated_particle_count()?;
+        // Solver, controller and tracker memory, estimated generously: two particle states
+        // and the weights (~200 B a particle), nodal fields and the tracker's vectors
+        // (~1 kB a node).
+        let bytes = 400.0 * n as f64 + 1000.0 * self.cells as f64;
+        crate::memory::check(bytes).map_err(|reason| invalid("particles", reason))?;
+        self.validate_masses(n)?;
+        self.validate_initial()
+    }
+
+    /// Checks that `cells` is in range and large enough for the boundary.
+    fn validate_cells(&self) -> Result<(), ScenarioError> {
         if self.cells == 0 || self.cells > MAX_CELLS {
             return Err(invalid(
                 "cells",
@@ -252,17 +262,16 @@ impl Scenario {
                 format!("{} cells: a periodic bar needs at least 3", self.cells),
             ));
         }
-        positive("length", self.length)?;
-        positive("youngs_modulus", self.youngs_modulus)?;
-        positive("density", self.density)?;
-        positive("t_end", self.t_end)?;
-        let n = match (&self.particles.per_cell, &self.particles.positions) {
-            (Some(_), Some(_)) | (None, None) => {
-                return Err(invalid(
-                    "particles",
-                    "give exactly one of `per_cell` and `positions`",
-                ))
-            }
+        Ok(())
+    }
+
+    /// Checks the particle layout (`per_cell` or `positions`); returns the particle count.
+    fn validated_particle_count(&self) -> Result<usize, ScenarioError> {
+        match (&self.particles.per_cell, &self.particles.positions) {
+            (Some(_), Some(_)) | (None, None) => Err(invalid(
+                "particles",
+                "give exactly one of `per_cell` and `positions`",
+            )),
             (Some(k), None) => {
                 if *k == 0 || k.saturating_mul(self.cells) > MAX_PARTICLES {
                     return Err(invalid(
@@ -270,46 +279,48 @@ impl Scenario {
                         format!("{k} must be at least 1 (and cells × per_cell ≤ {MAX_PARTICLES})"),
                     ));
                 }
-                k * self.cells
+                Ok(k * self.cells)
             }
-            (None, Some(xs)) => {
-                let periodic = self.boundary == Boundary::Periodic;
-                for (i, &x) in xs.iter().enumerate() {
-                    let inside = x >= 0.0
-                        && if periodic {
-                            x < self.length
-                        } else {
-                            x <= self.length
-                        };
-                    if !inside {
-                        return Err(invalid(
-                            "particles.positions",
-                            format!(
-                                "positions[{i}] = {x} is not in [0, {}{}",
-                                self.length,
-                                if periodic { ")" } else { "]" }
-                            ),
-                        ));
-                    }
-                }
-                if xs.len() < self.cells {
-                    return Err(invalid(
-                        "particles.positions",
-                        format!(
-                            "{} particles on {} cells: the GIMP width L/n would exceed h (need n ≥ cells)",
-                            xs.len(),
-                            self.cells
-                        ),
-                    ));
-                }
-                xs.len()
+            (None, Some(xs)) => self.validate_positions(xs),
+        }
+    }
+
+    /// Checks explicit positions lie on the bar and number at least `cells`; returns the count.
+    fn validate_positions(&self, xs: &[f64]) -> Result<usize, ScenarioError> {
+        let periodic = self.boundary == Boundary::Periodic;
+        for (i, &x) in xs.iter().enumerate() {
+            let inside = x >= 0.0
+                && if periodic {
+                    x < self.length
+                } else {
+                    x <= self.length
+                };
+            if !inside {
+                return Err(invalid(
+                    "particles.positions",
+                    format!(
+                        "positions[{i}] = {x} is not in [0, {}{}",
+                        self.length,
+                        if periodic { ")" } else { "]" }
+                    ),
+                ));
             }
-        };
-        // Solver, controller and tracker memory, estimated generously: two particle states
-        // and the weights (~200 B a particle), nodal fields and the tracker's vectors
-        // (~1 kB a node).
-        let bytes = 400.0 * n as f64 + 1000.0 * self.cells as f64;
-        crate::memory::check(bytes).map_err(|reason| invalid("particles", reason))?;
+        }
+        if xs.len() < self.cells {
+            return Err(invalid(
+                "particles.positions",
+                format!(
+                    "{} particles on {} cells: the GIMP width L/n would exceed h (need n ≥ cells)",
+                    xs.len(),
+                    self.cells
+                ),
+            ));
+        }
+        Ok(xs.len())
+    }
+
+    /// Checks the optional masses: one for each of the `n` particles, each positive and finite.
+    fn validate_masses(&self, n: usize) -> Result<(), ScenarioError> {
         if let Some(ms) = &self.particles.masses {
             if ms.len() != n {
                 return Err(invalid(
@@ -328,6 +339,11 @@ impl Scenario {
                 ));
             }
         }
+        Ok(())
+    }
+
+    /// Checks the standing wave's amplitude is finite and its mode fits the boundary.
+    fn validate_initial(&self) -> Result<(), ScenarioError> {
         if let Initial::StandingWave { amplitude, mode } = self.initial {
             if !amplitude.is_finite() {
                 return Err(invalid(
@@ -432,6 +448,15 @@ impl Scenario {
             self.material(),
             init,
         )?)
+    }
+}
+
+/// `Ok` when `v` is positive and finite, else an [`ScenarioError::Invalid`] naming `field`.
+fn positive(field: &'static str, v: f64) -> Result<(), ScenarioError> {
+    if v.is_finite() && v > 0.0 {
+        Ok(())
+    } else {
+        Err(invalid(field, format!("{v} must be positive and finite")))
     }
 }
 

@@ -133,6 +133,16 @@ pub fn nodal_derivatives(
     usable: &[bool],
 ) -> Result<NodalDerivatives, EstimatorError> {
     let nn = grid.n_nodes();
+    check_inputs(nn, values, usable)?;
+    let h = grid.h;
+    match grid.boundary {
+        Boundary::Periodic => periodic_derivatives(values, usable, h),
+        Boundary::Fixed => fixed_derivatives(values, usable, h),
+    }
+}
+
+/// Checks that `values` and `usable` have one entry per node and usable values are finite.
+fn check_inputs(nn: usize, values: &[f64], usable: &[bool]) -> Result<(), EstimatorError> {
     for (field, len) in [("values", values.len()), ("usable", usable.len())] {
         if len != nn {
             return Err(EstimatorError::Length {
@@ -151,80 +161,103 @@ pub fn nodal_derivatives(
             });
         }
     }
-    let h = grid.h;
+    Ok(())
+}
+
+/// Derivatives on a periodic grid by the wrapped central stencils (every node usable, ≥ 5).
+fn periodic_derivatives(
+    values: &[f64],
+    usable: &[bool],
+    h: f64,
+) -> Result<NodalDerivatives, EstimatorError> {
+    let nn = values.len();
     let mut out = NodalDerivatives::zeros(nn);
-    match grid.boundary {
-        Boundary::Periodic => {
-            if let Some(node) = usable.iter().position(|&u| !u) {
-                return Err(EstimatorError::Gap { node });
-            }
-            if nn < 5 {
-                return Err(EstimatorError::TooFewNodes {
-                    usable: nn,
-                    needed: 5,
-                });
-            }
-            let u = |j: i64| values[j.rem_euclid(nn as i64) as usize];
-            for i in 0..nn {
-                let k = i as i64;
-                out.value[i] = u(k);
-                out.first[i] = (u(k + 1) - u(k - 1)) / (2.0 * h);
-                out.second[i] = (u(k + 1) - 2.0 * u(k) + u(k - 1)) / (h * h);
-                out.third[i] =
-                    (u(k + 2) - 2.0 * u(k + 1) + 2.0 * u(k - 1) - u(k - 2)) / (2.0 * h * h * h);
-                out.fourth[i] = (u(k + 2) - 4.0 * u(k + 1) + 6.0 * u(k) - 4.0 * u(k - 1)
-                    + u(k - 2))
-                    / (h * h * h * h);
-            }
-        }
-        Boundary::Fixed => {
-            let lo = usable
-                .iter()
-                .position(|&u| u)
-                .ok_or(EstimatorError::TooFewNodes {
-                    usable: 0,
-                    needed: 6,
-                })?;
-            let hi = usable.iter().rposition(|&u| u).unwrap_or(lo);
-            if let Some(gap) = (lo..=hi).find(|&i| !usable[i]) {
-                return Err(EstimatorError::Gap { node: gap });
-            }
-            if hi + 1 - lo < 6 {
-                return Err(EstimatorError::TooFewNodes {
-                    usable: hi + 1 - lo,
-                    needed: 6,
-                });
-            }
-            let (lo, hi) = (lo as i64, hi as i64);
-            for i in 0..nn {
-                let k = i as i64;
-                for m in 0..=4usize {
-                    let hw = central_half_width(m);
-                    let (start, len) = if k - hw >= lo && k + hw <= hi {
-                        (k - hw, 2 * hw + 1)
-                    } else {
-                        // One-sided: m + 2 points (4 for the extrapolated value), the run
-                        // nearest to node i.
-                        let len = if m == 0 { 4 } else { m as i64 + 2 };
-                        ((k - len / 2).clamp(lo, hi - len + 1), len)
-                    };
-                    let xs: Vec<f64> = (start..start + len).map(|j| (j - k) as f64).collect();
-                    let w = fornberg_weights(0.0, &xs, m);
-                    let d: f64 = (start..start + len)
-                        .zip(&w[m])
-                        .map(|(j, c)| c * values[j as usize])
-                        .sum::<f64>()
-                        / h.powi(m as i32);
-                    match m {
-                        0 => out.value[i] = d,
-                        1 => out.first[i] = d,
-                        2 => out.second[i] = d,
-                        3 => out.third[i] = d,
-                        _ => out.fourth[i] = d,
-                    }
-                }
+    if let Some(node) = usable.iter().position(|&u| !u) {
+        return Err(EstimatorError::Gap { node });
+    }
+    if nn < 5 {
+        return Err(EstimatorError::TooFewNodes {
+            usable: nn,
+            needed: 5,
+        });
+    }
+    let u = |j: i64| values[j.rem_euclid(nn as i64) as usize];
+    for i in 0..nn {
+        let k = i as i64;
+        out.value[i] = u(k);
+        out.first[i] = (u(k + 1) - u(k - 1)) / (2.0 * h);
+        out.second[i] = (u(k + 1) - 2.0 * u(k) + u(k - 1)) / (h * h);
+        out.third[i] = (u(k + 2) - 2.0 * u(k + 1) + 2.0 * u(k - 1) - u(k - 2)) / (2.0 * h * h * h);
+        out.fourth[i] =
+            (u(k + 2) - 4.0 * u(k + 1) + 6.0 * u(k) - 4.0 * u(k - 1) + u(k - 2)) / (h * h * h * h);
+    }
+    Ok(out)
+}
+
+/// Derivatives on a fixed grid: central stencils inside the usable run, one-sided near its ends.
+fn fixed_derivatives(
+    values: &[f64],
+    usable: &[bool],
+    h: f64,
+) -> Result<NodalDerivatives, EstimatorError> {
+    let nn = values.len();
+    let mut out = NodalDerivatives::zeros(nn);
+    let (lo, hi) = usable_run(usable)?;
+    let (lo, hi) = (lo as i64, hi as i64);
+    for i in 0..nn {
+        let k = i as i64;
+        for m in 0..=4usize {
+            let d = fixed_stencil_derivative(values, k, m, lo, hi, h);
+            match m {
+                0 => out.value[i] = d,
+                1 => out.first[i] = d,
+                2 => out.second[i] = d,
+                3 => out.third[i] = d,
+                _ => out.fourth[i] = d,
             }
         }
     }
     Ok(out)
+}
+
+/// The first and last usable node, checking they bound one gap-free run of at least 6.
+fn usable_run(usable: &[bool]) -> Result<(usize, usize), EstimatorError> {
+    let lo = usable
+        .iter()
+        .position(|&u| u)
+        .ok_or(EstimatorError::TooFewNodes {
+            usable: 0,
+            needed: 6,
+        })?;
+    let hi = usable.iter().rposition(|&u| u).unwrap_or(lo);
+    if let Some(gap) = (lo..=hi).find(|&i| !usable[i]) {
+        return Err(EstimatorError::Gap { node: gap });
+    }
+    if hi + 1 - lo < 6 {
+        return Err(EstimatorError::TooFewNodes {
+            usable: hi + 1 - lo,
+            needed: 6,
+        });
+    }
+    Ok((lo, hi))
+}
+
+/// Derivative of order `m` at node `k` from the usable run `lo..=hi` (central or one-sided).
+fn fixed_stencil_derivative(values: &[f64], k: i64, m: usize, lo: i64, hi: i64, h: f64) -> f64 {
+    let hw = central_half_width(m);
+    let (start, len) = if k - hw >= lo && k + hw <= hi {
+        (k - hw, 2 * hw + 1)
+    } else {
+        // One-sided: m + 2 points (4 for the extrapolated value), the run
+        // nearest to node k.
+        let len = if m == 0 { 4 } else { m as i64 + 2 };
+        ((k - len / 2).clamp(lo, hi - len + 1), len)
+    };
+    let xs: Vec<f64> = (start..start + len).map(|j| (j - k) as f64).collect();
+    let w = fornberg_weights(0.0, &xs, m);
+    (start..start + len)
+        .zip(&w[m])
+        .map(|(j, c)| c * values[j as usize])
+        .sum::<f64>()
+        / h.powi(m as i32)
 }

@@ -272,97 +272,149 @@ pub fn run_case(
     validate(cells, ppc, config)?;
     let wave = Wave::new(config.field);
     let grid = Grid::new(config.boundary, cells, 1.0);
-    let h = grid.h;
-    let (x, width) = if config.tiling {
+    let (x, width) = particle_layout(config, cells, ppc, grid.h);
+    let weights = Weights::compute(&grid, Shape::Gimp, &x, &width);
+    let mass = width.clone(); // ρ = 1
+    let mut layout = Layout::new(&grid, &weights, &x, &mass, &width)?;
+    let nodes = grid.node_positions();
+    let v_p: Vec<f64> = x.iter().map(|&x| wave.v(x)).collect();
+    let (err, est) = match case {
+        1 => case_velocity_to_nodes(config, &wave, &layout, &nodes, &v_p)?,
+        2 => case_stress_to_nodes(config, &wave, &layout, &nodes)?,
+        3 | 4 => case_nodes_to_particles(case, &wave, &layout, &nodes)?,
+        5 => case_second_derivative(config, &wave, &mut layout, &v_p)?,
+        _ => {
+            return Err(EstimatorError::Argument {
+                name: "case",
+                value: case as f64,
+                reason: "Table 1 has cases 1 to 5",
+            })
+        }
+    };
+    Ok(row(case, cells, ppc, &err, &est))
+}
+
+/// Pointwise errors and estimates of one case, over the points it compares.
+type Compared = (Vec<f64>, Vec<f64>);
+
+/// Particle positions and GIMP widths of the configured layout (tiling or per-cell).
+fn particle_layout(config: &Config, cells: usize, ppc: usize, h: f64) -> (Vec<f64>, Vec<f64>) {
+    if config.tiling {
         tiling_layout(cells, ppc, config.jitter, config.seed)
     } else {
         let x = positions(cells, ppc, config.jitter, config.seed);
         let width = vec![h / ppc as f64; x.len()];
         (x, width)
-    };
-    let weights = Weights::compute(&grid, Shape::Gimp, &x, &width);
-    let mass = width.clone(); // ρ = 1
-    let mut layout = Layout::new(&grid, &weights, &x, &mass, &width)?;
-    let nn = grid.n_nodes();
-    let nodes = grid.node_positions();
-    let v_p: Vec<f64> = x.iter().map(|&x| wave.v(x)).collect();
-    match case {
-        1 => {
-            let v_i = layout.map_to_nodes(&v_p);
-            let d = config.recovery.nodal_derivatives(&layout, &v_p)?;
-            let est = value_mapping_error(&layout, &d)?;
-            let (err, est): (Vec<f64>, Vec<f64>) = (0..nn)
-                .filter(|&i| layout.node_active[i])
-                .map(|i| (wave.v(nodes[i]) - v_i[i], est[i]))
-                .unzip();
-            Ok(row(case, cells, ppc, &err, &est))
-        }
-        2 => {
-            let s_p: Vec<f64> = x.iter().map(|&x| wave.sigma(x)).collect();
-            let g = layout.derivative_to_nodes(&s_p);
-            let d = config.recovery.nodal_derivatives(&layout, &s_p)?;
-            let est = stress_divergence_error_from(&layout, &d)?;
-            let (err, est): (Vec<f64>, Vec<f64>) = (0..nn)
-                .filter(|&i| layout.node_active[i])
-                .map(|i| {
-                    let rho = layout.node_density(i);
-                    ((wave.dsigma(nodes[i]) - g[i]) / rho, est[i])
-                })
-                .unzip();
-            Ok(row(case, cells, ppc, &err, &est))
-        }
-        3 | 4 => {
-            let v_i: Vec<f64> = nodes.iter().map(|&x| wave.v(x)).collect();
-            let d = nodal_derivatives(&grid, &v_i, &vec![true; nn])?;
-            let mut computed = vec![0.0; x.len()];
-            let (kind, est) = if case == 3 {
-                (WeightKind::S, interpolation_error(&layout, &d)?)
-            } else {
-                (WeightKind::D, gradient_error(&layout, &d)?)
-            };
-            weights.gather(kind, &v_i, &mut computed);
-            let err: Vec<f64> = x
-                .iter()
-                .zip(&computed)
-                .map(|(&x, c)| if case == 3 { wave.v(x) } else { wave.dv(x) } - c)
-                .collect();
-            Ok(row(case, cells, ppc, &err, &est))
-        }
-        5 => {
-            if config.boundary == Boundary::Fixed {
-                // The wall nodes take part in the derivative map: v = 0 there, so the
-                // boundary term of the integration by parts behind eq 18 vanishes.
-                let mean = layout.node_mass.iter().sum::<f64>() / nn as f64;
-                for i in [1, nn - 2] {
-                    layout.node_active[i] = layout.node_mass[i] > 1e-12 * mean;
-                }
-            }
-            let (g, s) = second_derivative(&layout, &v_p);
-            // At clamped walls the velocity is known, v = 0. The `c_0 v_i / V_i` defect term
-            // of the first map there is the boundary term of the integration by parts,
-            // `O(1/h)` times the wall velocity, so the estimate must use the known value;
-            // pinning it also steadies the one-sided fits next to the wall.
-            let pins: Vec<(usize, f64)> = match config.boundary {
-                Boundary::Fixed => vec![(1, 0.0), (nn - 2, 0.0)],
-                Boundary::Periodic => vec![],
-            };
-            let dv = config
-                .recovery
-                .nodal_derivatives_pinned(&layout, &v_p, &pins)?;
-            let dvx = match config.recovery {
-                Recovery::Mapped => nodal_derivatives(&grid, &g, &layout.node_active)?,
-                Recovery::LeastSquares => dv.shifted(),
-            };
-            let est = second_derivative_error(&layout, &dv, &dvx)?;
-            let err: Vec<f64> = x.iter().zip(&s).map(|(&x, s)| wave.d2v(x) - s).collect();
-            Ok(row(case, cells, ppc, &err, &est))
-        }
-        _ => Err(EstimatorError::Argument {
-            name: "case",
-            value: case as f64,
-            reason: "Table 1 has cases 1 to 5",
-        }),
     }
+}
+
+/// Case 1 (eq 17): particle velocities mapped to the active nodes, estimate eq 34.
+fn case_velocity_to_nodes(
+    config: &Config,
+    wave: &Wave,
+    layout: &Layout<'_>,
+    nodes: &[f64],
+    v_p: &[f64],
+) -> Result<Compared, EstimatorError> {
+    let nn = layout.grid.n_nodes();
+    let v_i = layout.map_to_nodes(v_p);
+    let d = config.recovery.nodal_derivatives(layout, v_p)?;
+    let est = value_mapping_error(layout, &d)?;
+    Ok((0..nn)
+        .filter(|&i| layout.node_active[i])
+        .map(|i| (wave.v(nodes[i]) - v_i[i], est[i]))
+        .unzip())
+}
+
+/// Case 2 (eq 18): particle stresses mapped to nodal accelerations, estimate eq 33.
+fn case_stress_to_nodes(
+    config: &Config,
+    wave: &Wave,
+    layout: &Layout<'_>,
+    nodes: &[f64],
+) -> Result<Compared, EstimatorError> {
+    let nn = layout.grid.n_nodes();
+    let s_p: Vec<f64> = layout.x.iter().map(|&x| wave.sigma(x)).collect();
+    let g = layout.derivative_to_nodes(&s_p);
+    let d = config.recovery.nodal_derivatives(layout, &s_p)?;
+    let est = stress_divergence_error_from(layout, &d)?;
+    Ok((0..nn)
+        .filter(|&i| layout.node_active[i])
+        .map(|i| {
+            let rho = layout.node_density(i);
+            ((wave.dsigma(nodes[i]) - g[i]) / rho, est[i])
+        })
+        .unzip())
+}
+
+/// Cases 3 (eq 21) and 4 (eq 24): exact nodal velocities interpolated or differentiated
+/// at the particles, estimates eq 37 and eq 41.
+fn case_nodes_to_particles(
+    case: u8,
+    wave: &Wave,
+    layout: &Layout<'_>,
+    nodes: &[f64],
+) -> Result<Compared, EstimatorError> {
+    let nn = layout.grid.n_nodes();
+    let x = layout.x;
+    let v_i: Vec<f64> = nodes.iter().map(|&x| wave.v(x)).collect();
+    let d = nodal_derivatives(layout.grid, &v_i, &vec![true; nn])?;
+    let mut computed = vec![0.0; x.len()];
+    let (kind, est) = if case == 3 {
+        (WeightKind::S, interpolation_error(layout, &d)?)
+    } else {
+        (WeightKind::D, gradient_error(layout, &d)?)
+    };
+    layout.weights.gather(kind, &v_i, &mut computed);
+    let err: Vec<f64> = x
+        .iter()
+        .zip(&computed)
+        .map(|(&x, c)| if case == 3 { wave.v(x) } else { wave.dv(x) } - c)
+        .collect();
+    Ok((err, est))
+}
+
+/// Case 5: particle velocities to a nodal derivative and back to a second derivative at
+/// the particles, estimate [`second_derivative_error`].
+fn case_second_derivative(
+    config: &Config,
+    wave: &Wave,
+    layout: &mut Layout<'_>,
+    v_p: &[f64],
+) -> Result<Compared, EstimatorError> {
+    let nn = layout.grid.n_nodes();
+    if config.boundary == Boundary::Fixed {
+        // The wall nodes take part in the derivative map: v = 0 there, so the
+        // boundary term of the integration by parts behind eq 18 vanishes.
+        let mean = layout.node_mass.iter().sum::<f64>() / nn as f64;
+        for i in [1, nn - 2] {
+            layout.node_active[i] = layout.node_mass[i] > 1e-12 * mean;
+        }
+    }
+    let (g, s) = second_derivative(layout, v_p);
+    // At clamped walls the velocity is known, v = 0. The `c_0 v_i / V_i` defect term
+    // of the first map there is the boundary term of the integration by parts,
+    // `O(1/h)` times the wall velocity, so the estimate must use the known value;
+    // pinning it also steadies the one-sided fits next to the wall.
+    let pins: Vec<(usize, f64)> = match config.boundary {
+        Boundary::Fixed => vec![(1, 0.0), (nn - 2, 0.0)],
+        Boundary::Periodic => vec![],
+    };
+    let dv = config
+        .recovery
+        .nodal_derivatives_pinned(layout, v_p, &pins)?;
+    let dvx = match config.recovery {
+        Recovery::Mapped => nodal_derivatives(layout.grid, &g, &layout.node_active)?,
+        Recovery::LeastSquares => dv.shifted(),
+    };
+    let est = second_derivative_error(layout, &dv, &dvx)?;
+    let err: Vec<f64> = layout
+        .x
+        .iter()
+        .zip(&s)
+        .map(|(&x, s)| wave.d2v(x) - s)
+        .collect();
+    Ok((err, est))
 }
 
 /// The whole table: every case of [`CASES`], cell count of [`CELLS`] and ppc of [`PPC`],

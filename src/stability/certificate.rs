@@ -34,6 +34,10 @@
 
 use nalgebra::{Cholesky, DMatrix};
 
+mod chains;
+
+use chains::positive_definite_chains;
+
 /// Relative slack added to a certified bound of an `n`-node operator for the rounding of
 /// the factorisation (module docs): `max(10⁻¹², 2 (20 + 3n) u)`, `u = 2⁻⁵³`.
 pub fn rounding_slack(n: usize) -> f64 {
@@ -237,166 +241,6 @@ impl Chain {
         self.l1 = l;
         true
     }
-}
-
-/// [`positive_definite`] as `C` chains eliminated side by side. Borders of two nodes cut the
-/// node lattice into `C` chains that do not couple to each other (the half-bandwidth is 2):
-/// on a periodic grid `C` borders, the last `{n−2, n−1}`, each following its chain; on a
-/// fixed grid the `C − 1` borders between the chains. Every chain is eliminated forward, all
-/// in one loop, so their chains of dependent divisions overlap. A chain meets the border
-/// before it at its first two nodes and the border after it at its last two, so its forward
-/// solve carries two border columns along and two more at its end ([`Chain`]). The test is
-/// then the positivity of the borders' Schur complement `S = Q − Σ_chains Σ y yᵀ/d`
-/// (`2C × 2C` periodic, `2(C−1)` fixed) — Haynsworth: `inertia(A) = inertia(⊕ chains) +
-/// inertia(S)`, and a failed pivot in a chain is a leading principal submatrix (of a
-/// symmetric permutation of `A`) that is not positive definite. The same matrix, reordered:
-/// the rounding analysis of the module docs holds with the borders' sums over their chains.
-/// Needs chains of at least two nodes (`n ≥ 4C` is plenty).
-#[inline(always)]
-fn positive_definite_chains<const C: usize>(
-    n: usize,
-    periodic: bool,
-    a: impl Fn(usize) -> f64,
-    o: impl Fn(usize, usize) -> f64,
-) -> bool {
-    const NONE: usize = usize::MAX;
-    let borders = if periodic { C } else { C - 1 };
-    let in_chains = n - 2 * borders;
-    // Chain k: `start[k] .. start[k] + len[k]`; border k: the two nodes after chain k.
-    let mut start = [0usize; C];
-    let mut len = [0usize; C];
-    let mut at = 0;
-    for k in 0..C {
-        start[k] = at;
-        len[k] = in_chains / C + usize::from(k < in_chains % C);
-        at += len[k] + 2;
-    }
-    let border_node = |b: usize, t: usize| start[b] + len[b] + t;
-    // The border before chain k and after it (NONE at a fixed grid's ends).
-    let before = |k: usize| {
-        if k > 0 {
-            k - 1
-        } else if periodic {
-            C - 1
-        } else {
-            NONE
-        }
-    };
-    let after = |k: usize| if k + 1 < C || periodic { k } else { NONE };
-    let coupling = |i: usize, j: usize| -> f64 {
-        let (lo, hi) = if i < j { (i, j) } else { (j, i) };
-        let d = hi - lo;
-        if d <= 2 {
-            -o(lo, d - 1)
-        } else if periodic && n - d <= 2 {
-            -o(hi, n - d - 1)
-        } else {
-            0.0
-        }
-    };
-    let columns = |i: usize, k: usize| -> [f64; 4] {
-        let mut b = [0.0; 4];
-        for (c, border) in [before(k), after(k)].into_iter().enumerate() {
-            if border != NONE {
-                b[2 * c] = coupling(i, border_node(border, 0));
-                b[2 * c + 1] = coupling(i, border_node(border, 1));
-            }
-        }
-        b
-    };
-    let mut chains = [Chain::START; C];
-    // Node j of chain k (a macro rather than a closure so that the chain states can stay in
-    // registers when the loop over the chains unrolls).
-    macro_rules! step {
-        ($k:expr, $j:expr) => {{
-            let (k, j) = ($k, $j);
-            let i = start[k] + j;
-            let e = if j >= 1 { -o(i - 1, 0) } else { 0.0 };
-            let f = if j >= 2 { -o(i - 2, 1) } else { 0.0 };
-            let c = &mut chains[k];
-            // Within two of the chain's end first: a short chain's node can be among the
-            // first two and the last two, and then needs all four columns.
-            if j + 2 >= len[k] {
-                c.step::<4>(a(i), e, f, columns(i, k))
-            } else if j < 2 {
-                c.step::<2>(a(i), e, f, columns(i, k))
-            } else {
-                c.step::<2>(a(i), e, f, [0.0; 4])
-            }
-        }};
-    }
-    // Every chain has at least `len[C − 1]` nodes; the first `in_chains % C` one more.
-    let shortest = len[C - 1];
-    for j in 0..shortest {
-        let mut ok = true;
-        for k in 0..C {
-            ok &= step!(k, j);
-        }
-        if !ok {
-            return false;
-        }
-    }
-    for k in 0..C {
-        if len[k] > shortest && !step!(k, shortest) {
-            return false;
-        }
-    }
-    // The Schur complement of the borders, node 2b + t for node t of border b.
-    let m = 2 * borders;
-    let mut q = [[0.0_f64; 2 * MAX_CHAINS]; 2 * MAX_CHAINS];
-    let node = |x: usize| border_node(x / 2, x % 2);
-    for (x, row) in q.iter_mut().enumerate().take(m) {
-        for (y, entry) in row.iter_mut().enumerate().take(m) {
-            *entry = if x == y {
-                a(node(x))
-            } else {
-                coupling(node(x), node(y))
-            };
-        }
-    }
-    for (k, chain) in chains.iter().enumerate() {
-        // The chain's columns: [before 0, before 1, after 0, after 1].
-        let slot = |c: usize| {
-            let border = if c < 2 { before(k) } else { after(k) };
-            (border != NONE).then(|| 2 * border + c % 2)
-        };
-        let mut idx = 0;
-        for ci in 0..4 {
-            for cj in ci..4 {
-                if let (Some(x), Some(y)) = (slot(ci), slot(cj)) {
-                    q[x][y] -= chain.s[idx];
-                    if x != y {
-                        q[y][x] -= chain.s[idx];
-                    }
-                }
-                idx += 1;
-            }
-        }
-    }
-    dense_cholesky_positive(&q, m)
-}
-
-/// The most chains [`positive_definite_chains`] runs.
-const MAX_CHAINS: usize = 4;
-
-/// Whether the symmetric `q[..m][..m]` is positive definite (Cholesky by hand: every pivot
-/// positive and finite).
-fn dense_cholesky_positive(q: &[[f64; 2 * MAX_CHAINS]; 2 * MAX_CHAINS], m: usize) -> bool {
-    let mut l = [[0.0_f64; 2 * MAX_CHAINS]; 2 * MAX_CHAINS];
-    for i in 0..m {
-        for j in 0..=i {
-            let sum = (0..j).fold(q[i][j], |sum, k| sum - l[i][k] * l[j][k]);
-            if i == j {
-                if !(sum > 0.0 && sum.is_finite()) {
-                    return false;
-                }
-                l[i][i] = sum.sqrt();
-            } else {
-                l[i][j] = sum / l[j][j];
-            }
-        }
-    }
-    true
 }
 
 /// [`positive_definite`] as one chain (the nodes in order, the periodic border last).
