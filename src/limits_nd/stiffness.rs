@@ -18,9 +18,11 @@
 use crate::nd::ViewNd;
 
 mod blocked;
+mod krylov;
 use crate::reduce::{Reduce, SingleProcess};
-use crate::stability::lambda_max::{dot, top_ritz};
+use crate::stability::lambda_max::dot;
 use faer::Mat;
+use krylov::{ActiveSpace, Iteration};
 
 /// `M^{-1/2}` on the nodes: `1/√m_i` at active nodes, 0 elsewhere (inactive nodes drop out
 /// of the operator).
@@ -367,34 +369,10 @@ pub fn lanczos_on<const D: usize>(
     reduce: &dyn Reduce,
 ) -> LanczosResult {
     let n = start.len();
-    let mut basis: Vec<Vec<f64>> = Vec::new();
-    let mut alpha: Vec<f64> = Vec::new();
-    let mut beta: Vec<f64> = Vec::new();
-    let mut q: Vec<f64> = start.to_vec();
-    // Zero inactive nodes' components; the operator ignores them.
-    for i in 0..view.n_nodes() {
-        if !view.node_active[i] {
-            for a in 0..D {
-                q[i * D + a] = 0.0;
-            }
-        }
-    }
-    let space = NodalSpace::new(view, reduce);
-    // The iteration runs on the active components only: every vector vanishes at inactive
-    // nodes (the start is zeroed there and `A` reads and writes zero there), so the sums
-    // are the full vectors' bit for bit, at the cost of the active part of the grid.
-    let comps: Vec<usize> = (0..view.n_nodes())
-        .filter(|&i| view.node_active[i])
-        .flat_map(|i| i * D..(i + 1) * D)
-        .collect();
-    let owned: Vec<bool> = match &view.split {
-        Some(s) => comps.iter().map(|&c| s.owned[c / D]).collect(),
-        None => Vec::new(),
-    };
-    let dots = |left: &[&[f64]], b: &[f64]| space.dots_counting(left, b, |k| owned[k]);
-    let gather = |full: &[f64]| -> Vec<f64> { comps.iter().map(|&c| full[c]).collect() };
-    let mut qc = gather(&q);
-    let norm = dots(&[&qc], &qc)[0].sqrt();
+    let q = krylov::zero_inactive(view, start);
+    let active = ActiveSpace::new(view, reduce);
+    let mut qc = active.gather(&q);
+    let norm = active.norm(&qc);
     if !(norm > 0.0 && norm.is_finite()) {
         return LanczosResult {
             lambda: 0.0,
@@ -404,75 +382,13 @@ pub fn lanczos_on<const D: usize>(
         };
     }
     qc.iter_mut().for_each(|v| *v /= norm);
-    let mut qf = vec![0.0; n];
-    let mut wf = vec![0.0; n];
-    let inv_sqrt_m = inverse_sqrt_mass(view);
-    // The blocked products' plan (slots, range vectors), formed once for the run.
-    let mut plan = pool.and_then(|_| blocked::BlockedProduct::plan(view));
-    // (Ritz value, residual bound, coordinates in the basis) of the latest iteration.
-    let mut best: (f64, f64, Vec<f64>) = (0.0, f64::INFINITY, vec![1.0]);
-    // Consecutive iterations in which the Ritz value moved by less than `tol·λ/10`.
-    let mut settled_runs = 0;
-    for k in 0..max_iter.max(1) {
-        for (&c, &v) in comps.iter().zip(&qc) {
-            qf[c] = v;
-        }
-        apply_planned(pool.zip(plan.as_mut()), view, &inv_sqrt_m, &qf, &mut wf);
-        space.complete(&mut wf);
-        let mut w = gather(&wf);
-        let a = dots(&[&qc], &w)[0];
-        basis.push(std::mem::take(&mut qc));
-        alpha.push(a);
-        // Full reorthogonalisation (twice is enough): modified Gram–Schmidt on an
-        // undivided grid; classical (one reduction per pass) on a decomposed one.
-        for _ in 0..2 {
-            if view.split.is_some() {
-                let refs: Vec<&[f64]> = basis.iter().map(|b| b.as_slice()).collect();
-                let cs = dots(&refs, &w);
-                for (b, c) in basis.iter().zip(cs) {
-                    w.iter_mut().zip(b).for_each(|(x, y)| *x -= c * y);
-                }
-            } else {
-                for b in &basis {
-                    let c = dot(b, &w);
-                    w.iter_mut().zip(b).for_each(|(x, y)| *x -= c * y);
-                }
-            }
-        }
-        let bnorm = dots(&[&w], &w)[0].sqrt();
-        let (theta, y) = top_ritz(&alpha, &beta);
-        let residual = bnorm * y.last().copied().unwrap_or(0.0).abs();
-        let settled = (theta - best.0).abs() <= 0.1 * tol * theta.abs();
-        settled_runs = if settled { settled_runs + 1 } else { 0 };
-        best = (theta, residual, y);
-        if residual <= tol * theta.abs()
-            || (k >= 2 && settled_runs >= 2)
-            || bnorm <= 1e-14 * theta.abs()
-            || k + 1 == max_iter
-        {
-            break;
-        }
-        beta.push(bnorm);
-        qc = w.iter().map(|v| v / bnorm).collect();
-    }
-    // The Ritz vector, normalised, back on the whole window of nodes.
-    let mut v = vec![0.0; comps.len()];
-    for (b, &c) in basis.iter().zip(&best.2) {
-        v.iter_mut().zip(b).for_each(|(x, z)| *x += c * z);
-    }
-    let norm = dots(&[&v], &v)[0].sqrt();
-    if norm > 0.0 {
-        v.iter_mut().for_each(|x| *x /= norm);
-    }
-    let mut vector = vec![0.0; n];
-    for (&c, &x) in comps.iter().zip(&v) {
-        vector[c] = x;
-    }
+    let it = Iteration::run(pool, view, &active, qc, n, tol, max_iter);
+    let (lambda, residual) = it.value();
     LanczosResult {
-        lambda: best.0,
-        residual: best.1,
-        vector,
-        applications: alpha.len(),
+        lambda,
+        residual,
+        vector: it.ritz_vector(&active, n),
+        applications: it.applications(),
     }
 }
 

@@ -72,13 +72,14 @@
 //! estimators are 1D; a configured `balance` is reported as an error, not ignored.
 
 mod accept;
+mod passes;
 
-use super::temporal_sweep::{stamp, sweep, History, Pairing, Weights, LEFT_OUT, NONE};
+use super::temporal_sweep::{stamp, History, Pairing, LEFT_OUT, NONE};
 use crate::controller::deferral::{self, DeferredTrial};
 use crate::controller::{metric, TemporalErrorConfig, TEMPORAL_ERROR};
 use crate::dimension::{Dim, Dimension};
 use crate::limit::{Judgement, LimitError, Metrics, Proposal, RejectCause, StepLimit, Verdict};
-use crate::nd::{Vector, ViewNd};
+use crate::nd::ViewNd;
 use accept::Judged;
 
 /// Relative growth of a field scale over the previous step's below which the weights keep
@@ -237,109 +238,24 @@ impl<const D: usize> TemporalErrorNd<D> {
         Self::check(after)?;
         let n = after.n_particles();
         // Partners by index, or by run-wide id where particles changed process.
-        let (split, moved) = match (before.split, after.split) {
-            (Some(b), Some(a)) if a.particle_id == b.particle_id => (Some(a.particle_id), None),
-            (Some(b), Some(a)) => {
-                let total = b.n_particles_total.max(a.n_particles_total);
-                Self::index_ids(&mut self.slot_before, b.particle_id, total)?;
-                (Some(a.particle_id), Some(a.particle_id))
-            }
-            (None, None) if before.n_particles() == n => (None, None),
-            _ => {
-                return Err(Self::other(format!(
-                    "committed ({}) and trial ({n}) particles cannot be matched",
-                    before.n_particles()
-                )))
-            }
-        };
+        let (split, moved) = self.partners(before, after)?;
         let before_ids = before.split.map(|b| b.particle_id);
-        let n_before = before.n_particles();
-        let history = self.history.as_ref().filter(|h| {
-            h.consistent()
-                && h.accel.len() == n_before
-                && match before_ids {
-                    None => h.ids.is_empty(),
-                    Some(_) => !h.ids.is_empty(),
-                }
-        });
+        let history = self.usable_history(before);
         // Every entry is written by the first sweep (the arrays keep their length).
         if let Some(out) = out.as_deref_mut() {
-            out.accel.resize(n, Vector::<D>::zeros());
-            out.stress_rate.reset(n);
-            out.ids.clear();
-            if let Some(ids) = split {
-                out.ids.extend_from_slice(ids);
-            }
+            Self::prepare(out, n, split);
         }
-        // The weights need this trial's field scales, known only after a pass: the first
-        // sweep uses the previous step's, and a second sweep, writing nothing, redoes the
-        // sums with `max(new, previous)` only when a scale grew by more than
-        // `SCALE_SLACK` (a run gaining energy). Below that, the weights are
-        // at most that much smaller than the 1D limit's: a stricter test (module docs).
-        let c = &self.config;
-        let weights = |sv: f64, ss: f64| {
-            Some(Weights {
-                rtol: c.rtol,
-                abs: (
-                    c.atol_v + c.atol_rel() * sv,
-                    c.atol_sigma + c.atol_rel() * ss,
-                ),
-            })
-        };
-        let pool = self.pool.as_deref();
         let pair = Pairing {
             moved,
             slot_before: &self.slot_before,
             before_ids,
             history,
         };
-        // `(‖v‖_∞, ‖σ‖_∞)` of a sweep's maxima (the impedance-scaled ones included).
-        let scales = |[vm, sm, vs2, sv2]: [f64; 4]| (vm.max(vs2).sqrt(), sm.max(sv2).sqrt());
-        let (prev_v, prev_s) = match self.history.as_ref() {
-            Some(h) => (h.v_scale, h.sigma_scale),
-            // No previous scales (the first step, or a history lost): the scales from a
-            // pass over the fields alone, so that the sums are taken once, with this
-            // step's own scales, as a second sweep would take them.
-            None => scales(sweep(pool, before, after, dt, &pair, None, None).maxima),
-        };
-        let first = sweep(
-            pool,
-            before,
-            after,
-            dt,
-            &pair,
-            weights(prev_v, prev_s),
-            out.as_deref_mut(),
-        );
-        let finite = first.finite;
-        let (v_scale, sigma_scale) = scales(first.maxima);
-        let grew = |new: f64, prev: f64| new > (1.0 + SCALE_SLACK) * prev;
-        let sweep = if !grew(v_scale, prev_v) && !grew(sigma_scale, prev_s) {
-            first
-        } else {
-            let w = weights(v_scale.max(prev_v), sigma_scale.max(prev_s));
-            sweep(pool, before, after, dt, &pair, w, None)
-        };
+        let passes = self.passes(before, after, dt, &pair, out.as_deref_mut());
         if let Some(out) = out {
-            stamp(out, dt, v_scale, sigma_scale);
+            stamp(out, dt, passes.v_scale, passes.sigma_scale);
         }
-        let [sum_v, sum_s] = sweep.sums;
-        let nf = sweep.count.max(1) as f64;
-        // A non-finite rate is a non-finite trial: `dsm` NaN rejects it (the maxima and
-        // the first step's nodal form would not carry the NaN).
-        let dsm = if finite {
-            ((sum_v + sum_s) / (2.0 * nf)).sqrt()
-        } else {
-            f64::NAN
-        };
-        Ok(Estimate {
-            dsm,
-            dsm_v: (sum_v / nf).sqrt(),
-            dsm_sigma: (sum_s / nf).sqrt(),
-            count: sweep.count,
-            v_scale,
-            sigma_scale,
-        })
+        Ok(passes.estimate())
     }
 
     /// A history whose arrays the next estimate overwrites.

@@ -1,0 +1,162 @@
+//! The phases of [`TemporalErrorNd::estimate`]: the trial's particles paired with the
+//! committed ones, and the sweeps over them with the weights of the field scales (the
+//! parent module's docs, "One pass").
+
+use super::{Estimate, TemporalErrorNd, SCALE_SLACK};
+use crate::limit::LimitError;
+use crate::limits_nd::temporal_sweep::{sweep, History, Pairing, Sweep, Weights};
+use crate::nd::{Vector, ViewNd};
+
+/// The sums of an estimate's last sweep, with what its first sweep found: whether every
+/// rate was finite, and the trial's field scales `‖v‖_∞`, `‖σ‖_∞`.
+pub(super) struct Passes {
+    sweep: Sweep,
+    finite: bool,
+    pub v_scale: f64,
+    pub sigma_scale: f64,
+}
+
+/// The trial's run-wide ids and, where particles changed process, the ids to match by.
+type Partners<'a> = (Option<&'a [u64]>, Option<&'a [u64]>);
+
+impl<const D: usize> TemporalErrorNd<D> {
+    /// The trial's run-wide ids (`split`) and, where particles changed process, the same
+    /// ids as `moved`, to be matched through `slot_before` (filled here).
+    pub(super) fn partners<'a>(
+        &mut self,
+        before: &ViewNd<'_, D>,
+        after: &ViewNd<'a, D>,
+    ) -> Result<Partners<'a>, LimitError> {
+        let n = after.n_particles();
+        match (before.split, after.split) {
+            (Some(b), Some(a)) if a.particle_id == b.particle_id => Ok((Some(a.particle_id), None)),
+            (Some(b), Some(a)) => {
+                let total = b.n_particles_total.max(a.n_particles_total);
+                Self::index_ids(&mut self.slot_before, b.particle_id, total)?;
+                Ok((Some(a.particle_id), Some(a.particle_id)))
+            }
+            (None, None) if before.n_particles() == n => Ok((None, None)),
+            _ => Err(Self::other(format!(
+                "committed ({}) and trial ({n}) particles cannot be matched",
+                before.n_particles()
+            ))),
+        }
+    }
+
+    /// The history when it describes the committed particles: consistent, as many, and
+    /// with run-wide ids exactly when `before` is grid-decomposed.
+    pub(super) fn usable_history(&self, before: &ViewNd<'_, D>) -> Option<&History<D>> {
+        let before_ids = before.split.map(|b| b.particle_id);
+        let n_before = before.n_particles();
+        self.history.as_ref().filter(|h| {
+            h.consistent()
+                && h.accel.len() == n_before
+                && match before_ids {
+                    None => h.ids.is_empty(),
+                    Some(_) => !h.ids.is_empty(),
+                }
+        })
+    }
+
+    /// Sizes `out` for the `n` trial particles, with their run-wide ids `split`.
+    pub(super) fn prepare(out: &mut History<D>, n: usize, split: Option<&[u64]>) {
+        out.accel.resize(n, Vector::<D>::zeros());
+        out.stress_rate.reset(n);
+        out.ids.clear();
+        if let Some(ids) = split {
+            out.ids.extend_from_slice(ids);
+        }
+    }
+
+    /// The weights `w_u = atol_u + atol_rel · s_u + rtol · û_p` for the field scales
+    /// `(s_v, s_σ) = (sv, ss)`.
+    fn weights(&self, sv: f64, ss: f64) -> Option<Weights> {
+        let c = &self.config;
+        Some(Weights {
+            rtol: c.rtol,
+            abs: (
+                c.atol_v + c.atol_rel() * sv,
+                c.atol_sigma + c.atol_rel() * ss,
+            ),
+        })
+    }
+
+    /// The sweeps of an estimate: the first with the previous step's scales (writing the
+    /// rates into `out`), a second with `max(new, previous)` when a scale grew by more
+    /// than [`SCALE_SLACK`].
+    pub(super) fn passes(
+        &self,
+        before: &ViewNd<'_, D>,
+        after: &ViewNd<'_, D>,
+        dt: f64,
+        pair: &Pairing<'_, D>,
+        out: Option<&mut History<D>>,
+    ) -> Passes {
+        // The weights need this trial's field scales, known only after a pass: the first
+        // sweep uses the previous step's, and a second sweep, writing nothing, redoes the
+        // sums with `max(new, previous)` only when a scale grew by more than
+        // `SCALE_SLACK` (a run gaining energy). Below that, the weights are
+        // at most that much smaller than the 1D limit's: a stricter test (module docs).
+        let pool = self.pool.as_deref();
+        let (prev_v, prev_s) = match self.history.as_ref() {
+            Some(h) => (h.v_scale, h.sigma_scale),
+            // No previous scales (the first step, or a history lost): the scales from a
+            // pass over the fields alone, so that the sums are taken once, with this
+            // step's own scales, as a second sweep would take them.
+            None => field_scales(sweep(pool, before, after, dt, pair, None, None).maxima),
+        };
+        let first = sweep(
+            pool,
+            before,
+            after,
+            dt,
+            pair,
+            self.weights(prev_v, prev_s),
+            out,
+        );
+        let finite = first.finite;
+        let (v_scale, sigma_scale) = field_scales(first.maxima);
+        let grew = |new: f64, prev: f64| new > (1.0 + SCALE_SLACK) * prev;
+        let sweep = if !grew(v_scale, prev_v) && !grew(sigma_scale, prev_s) {
+            first
+        } else {
+            let w = self.weights(v_scale.max(prev_v), sigma_scale.max(prev_s));
+            sweep(pool, before, after, dt, pair, w, None)
+        };
+        Passes {
+            sweep,
+            finite,
+            v_scale,
+            sigma_scale,
+        }
+    }
+}
+
+/// `(‖v‖_∞, ‖σ‖_∞)` of a sweep's maxima (the impedance-scaled ones included).
+fn field_scales([vm, sm, vs2, sv2]: [f64; 4]) -> (f64, f64) {
+    (vm.max(vs2).sqrt(), sm.max(sv2).sqrt())
+}
+
+impl Passes {
+    /// The estimate: `dsm = sqrt((Σ_v + Σ_σ)/(2N))` (NaN when a rate was not finite),
+    /// `dsm_u = sqrt(Σ_u/N)`.
+    pub(super) fn estimate(&self) -> Estimate {
+        let [sum_v, sum_s] = self.sweep.sums;
+        let nf = self.sweep.count.max(1) as f64;
+        // A non-finite rate is a non-finite trial: `dsm` NaN rejects it (the maxima and
+        // the first step's nodal form would not carry the NaN).
+        let dsm = if self.finite {
+            ((sum_v + sum_s) / (2.0 * nf)).sqrt()
+        } else {
+            f64::NAN
+        };
+        Estimate {
+            dsm,
+            dsm_v: (sum_v / nf).sqrt(),
+            dsm_sigma: (sum_s / nf).sqrt(),
+            count: self.sweep.count,
+            v_scale: self.v_scale,
+            sigma_scale: self.sigma_scale,
+        }
+    }
+}
