@@ -220,6 +220,16 @@ impl ControllerConfig {
 
     /// Checks every field; the error names the first offending one.
     pub fn validate(&self) -> Result<(), ConfigError> {
+        self.validate_steps()?;
+        self.filter.validate()?;
+        self.temporal.validate()?;
+        self.growth.validate()?;
+        self.validate_limits()
+    }
+
+    /// Checks the controller's own step settings (`dt_*`, safety, growth and shrink
+    /// factors, rejections, order).
+    fn validate_steps(&self) -> Result<(), ConfigError> {
         if let Some(dt) = self.dt_initial {
             check(
                 "dt_initial",
@@ -293,10 +303,12 @@ impl ControllerConfig {
             self.max_consecutive_rejections >= 1,
             ">= 1",
         )?;
-        check("order", f64::from(self.order), self.order >= 1, ">= 1")?;
-        self.filter.validate()?;
-        self.temporal.validate()?;
-        self.growth.validate()?;
+        check("order", f64::from(self.order), self.order >= 1, ">= 1")
+    }
+
+    /// Checks the stability and sound-speed limits' settings (1D and 2D/3D), naming a
+    /// field by its JSON path.
+    fn validate_limits(&self) -> Result<(), ConfigError> {
         let stability_field = |e: StabilityError, prefix: &'static str| match e {
             StabilityError::InvalidConfig {
                 field,
