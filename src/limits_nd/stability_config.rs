@@ -71,7 +71,7 @@ pub struct StabilityNdConfig {
     /// `I − Q_s/2` inner product, warm-started from eq 56's Ritz vector, gives
     /// `gain = λmax/λ*` (at most 2), and the step is `safety·√(2·gain/λ)` until the next
     /// refresh ([`crate::limits_nd::stability`]). FLIP only (the APIC transfer has a
-    /// map of its own: an error); on a decomposed grid the gain stays 1 (eq 56).
+    /// map of its own: an error); on a run over several processes the gain stays 1 (eq 56).
     pub full_map: bool,
 }
 

@@ -39,11 +39,13 @@ use crate::stability::nodal_full_map::{nodal_critical_dt_from, NodalLanczos};
 
 impl<const D: usize> StabilityNd<D> {
     /// `gain = θ/θ*` of the state `view` at a refresh whose eq 56 Lanczos gave `r` (module
-    /// docs); 1 (eq 56) on a decomposed grid or when the second run finds no converged
+    /// docs); 1 (eq 56) on a run over several processes or when the second run finds no converged
     /// value. Also the second run's cost in eq 56's products (each iteration about two),
     /// for the bound's cost model ([`crate::limits_nd::bound_tracking`]).
     pub(super) fn full_map_gain(&mut self, view: &ViewNd<'_, D>, r: &LanczosResult) -> (f64, u64) {
-        if view.split.is_some() {
+        // The reduction's products are one process's: on a run over several processes
+        // (a decomposed grid, or particles split over a shared grid) eq 56 stays.
+        if view.split.is_some() || self.reduce.size() > 1 {
             return (1.0, 0);
         }
         let settings = NodalLanczos {
