@@ -7,6 +7,9 @@
 //! figures are printed and bounded below), and the controller still runs the drifting
 //! block, with a P wave on it, without a blow-up.
 
+#[path = "common/jitter.rs"]
+mod jitter;
+use jitter::jitter;
 use mpm_dt::controller::{Controller, ControllerConfig};
 use mpm_dt::limit::StepLimit;
 use mpm_dt::limits_nd::stiffness::dense_lambda_max;
@@ -27,16 +30,7 @@ fn drifting(shape: ShapeNd, wave: f64) -> SolverNd<2> {
         poisson_ratio: 0.3,
     };
     let mut particles = ParticlesNd::uniform(&grid, [2; 2], 1.0, material);
-    let mut s: u64 = 2024;
-    for p in 0..particles.len() {
-        for a in 0..2 {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            let u = (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
-            particles.x[p][a] += 0.4 * particles.domain[p][a] * u;
-        }
-    }
+    jitter(&mut particles, 0.4, 2024);
     let mut solver = SolverNd::new(grid, shape, particles, Vector::<2>::zeros()).unwrap();
     let c = material.p_modulus().sqrt();
     let n = solver.n_particles();
