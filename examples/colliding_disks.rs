@@ -46,7 +46,7 @@ struct History {
 
 fn record<const D: usize>(h: &mut History, s: &SolverNd<D>, dt: f64)
 where
-    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>> + mpm_dt::controller::StandardLimits<D>,
 {
     h.rows
         .push((s.time(), s.kinetic_energy(), s.strain_energy(), dt));
@@ -54,7 +54,7 @@ where
 
 fn controlled<const D: usize>(mut s: SolverNd<D>, scenario: &ScenarioNd) -> History
 where
-    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>> + mpm_dt::controller::StandardLimits<D>,
 {
     let mut h = History::default();
     record(&mut h, &s, f64::NAN);
@@ -100,7 +100,7 @@ where
 
 fn fixed_rule<const D: usize>(mut s: SolverNd<D>, alpha: f64, t_end: f64) -> History
 where
-    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>> + mpm_dt::controller::StandardLimits<D>,
 {
     let mut h = History::default();
     record(&mut h, &s, f64::NAN);
@@ -254,7 +254,7 @@ fn run<const D: usize>(
     repeat: usize,
 ) -> Result<bool, String>
 where
-    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>> + mpm_dt::controller::StandardLimits<D>,
 {
     let (s, _) = scenario.build::<D>().map_err(|e| e.to_string())?;
     eprintln!(

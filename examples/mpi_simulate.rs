@@ -93,7 +93,7 @@ fn run<const D: usize>(
     reduce: Rc<Timed<MpiReduce>>,
 ) -> Result<(), String>
 where
-    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>> + mpm_dt::controller::StandardLimits<D>,
 {
     let (rank, size) = (reduce.rank(), reduce.size());
     let shared: Rc<dyn Reduce> = reduce.clone();

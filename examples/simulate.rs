@@ -200,7 +200,7 @@ fn run_nd<const D: usize>(
     ranks: &Ranks,
 ) -> Result<(Value, Option<state_stream::StateWriter>), String>
 where
-    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>> + mpm_dt::controller::StandardLimits<D>,
 {
     let (mut s, wave) = match &ranks.reduce {
         Some(r) => scenario.build_slab::<D>(Rc::clone(r)),

@@ -34,7 +34,7 @@ fn cpu_seconds() -> f64 {
 
 fn run<const D: usize>(shape: ShapeNd, cells: usize, steps: usize, threads: usize, summary: bool)
 where
-    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>> + mpm_dt::controller::StandardLimits<D>,
 {
     let material = MaterialNd::LinearElastic {
         youngs_modulus: 1.0,

@@ -61,7 +61,7 @@
 //! | stability (eq 56) | [`stability::Stability`]: certified tracker, eq 58 | [`limits_nd::StabilityNd`]: Lanczos with a motion guard, the element bound |
 //! | temporal error (eqs 20–30) | [`controller::TemporalError`] | [`limits_nd::TemporalErrorNd`] |
 //! | growth monitor | [`controller::GrowthMonitor`] (checkerboard share) | [`limits_nd::GrowthNd`] (energy) |
-//! | the standard limits | [`controller::Controller::standard`] | [`limits_nd::standard_limits`] + [`controller::Controller::new`] |
+//! | the standard controller | [`controller::Controller::standard`] (`Controller::<1>`) | [`controller::Controller::standard`] (`Controller::<2>`, `Controller::<3>`; gravity from `config.gravity`), or [`limits_nd::standard_limits`] + [`controller::Controller::new`] |
 //! | reference solver | [`mpm::ReferenceStepper`] | [`nd::SolverNd`] |
 //! | scenarios, exact problems | [`scenario`], [`problems`] | [`nd::scenario`], [`nd::problems`] |
 //! | spatial error estimators (eqs 31–44) | [`estimators`] | — |

@@ -27,17 +27,15 @@ fn refused(result: Result<(), ControllerError>) -> Option<&'static str> {
 }
 
 fn try_2d(c: ControllerConfig) -> Result<(), ControllerError> {
-    let limits = standard_limits::<2>(&c, Vector::<2>::zeros());
-    Controller::<2>::new(c, limits).map(|_| ())
+    Controller::<2>::standard(c).map(|_| ())
 }
 
 fn try_3d(c: ControllerConfig) -> Result<(), ControllerError> {
-    let limits = standard_limits::<3>(&c, Vector::<3>::zeros());
-    Controller::<3>::new(c, limits).map(|_| ())
+    Controller::<3>::standard(c).map(|_| ())
 }
 
 fn try_1d(c: ControllerConfig) -> Result<(), ControllerError> {
-    Controller::standard(c).map(|_| ())
+    Controller::<1>::standard(c).map(|_| ())
 }
 
 const ONE_D_ONLY: [(&str, &str); 9] = [

@@ -251,6 +251,7 @@ fn config() -> impl Strategy<Value = ControllerConfig> {
                 bound_age: g.2,
                 ..StabilityNdConfig::default()
             },
+            gravity: g.0.then(|| vec![0.0, -g.4]),
         })
 }
 

@@ -27,7 +27,7 @@ pub fn energy_grew(e: f64, e0: f64) -> bool {
 /// the end.
 pub fn run_alpha<const D: usize>(mut s: SolverNd<D>, alpha: f64, t_end: f64) -> FixedRun<D>
 where
-    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>> + mpm_dt::controller::StandardLimits<D>,
 {
     let e0 = s.total_energy();
     let start = Instant::now();

@@ -60,7 +60,7 @@ fn finish<const D: usize>(
     wall_s: f64,
 ) -> Run
 where
-    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>> + mpm_dt::controller::StandardLimits<D>,
 {
     let e = s.total_energy();
     if blew_up.is_none() && energy_grew(e, e0) {
@@ -83,7 +83,7 @@ where
 
 fn fixed<const D: usize>(s: SolverNd<D>, alpha: f64, t_end: f64, wave: Option<&PlaneWave<D>>) -> Run
 where
-    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>> + mpm_dt::controller::StandardLimits<D>,
 {
     let e0 = s.total_energy();
     let run = run_alpha(s, alpha, t_end);
@@ -104,7 +104,7 @@ fn controlled<const D: usize>(
     wave: Option<&PlaneWave<D>>,
 ) -> Result<Run, String>
 where
-    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>> + mpm_dt::controller::StandardLimits<D>,
 {
     let e0 = s.total_energy();
     let config = scenario.controller_config().map_err(|e| e.to_string())?;
@@ -125,7 +125,7 @@ fn run<const D: usize>(
     repeat: usize,
 ) -> Result<Value, String>
 where
-    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>> + mpm_dt::controller::StandardLimits<D>,
 {
     let (s, wave) = scenario.build::<D>().map_err(|e| e.to_string())?;
     eprintln!(

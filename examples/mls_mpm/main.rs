@@ -133,10 +133,9 @@ struct ControlledRun {
 /// with no tuning.
 fn run_controlled(scene: Scene) -> ControlledRun {
     let mut s = build(scene);
-    let config = ControllerConfig::default();
-    let limits = mpm88::limits(scene, &config);
+    let config = mpm88::controller_config(scene, &ControllerConfig::default());
     let start = std::time::Instant::now();
-    let mut controller = match Controller::<2>::new(config, limits) {
+    let mut controller = match Controller::<2>::standard(config) {
         Ok(c) => c,
         Err(e) => {
             return ControlledRun {

@@ -1,11 +1,9 @@
 //! taichi's `mpm88` scene on the MLS-MPM solver ([`super::solver`]): its settings, its
-//! initial state and the controller's limits for it (module docs of `mls_mpm`).
+//! initial state and the controller's config for it (module docs of `mls_mpm`).
 
 use super::solver::{MlsMpm, Model};
 use mpm_dt::controller::ControllerConfig;
-use mpm_dt::limits_nd::{standard_limits, TransferNd};
-use mpm_dt::nd::Vector;
-use mpm_dt::StepLimit;
+use mpm_dt::limits_nd::TransferNd;
 use nalgebra::Vector2;
 use rand::{Rng, SeedableRng};
 
@@ -53,14 +51,16 @@ pub fn build(scene: Scene) -> MlsMpm {
     MlsMpm::new(scene.n_grid, model, 1.0, Vector2::new(0.0, -9.8), x, v).with_summary(scene.summary)
 }
 
-/// The standard 2D limits for the scene (gravity 9.8 downwards), the stability limit told
-/// the scheme's APIC transfer unless `scene.apic` is off.
-pub fn limits(scene: Scene, config: &ControllerConfig) -> Vec<Box<dyn StepLimit<2>>> {
-    let mut config = config.clone();
+/// The controller's config for the scene: `base` with gravity 9.8 downwards (the growth
+/// monitor's potential energy) and, unless `scene.apic` is off, the stability limit told
+/// the scheme's APIC transfer.
+pub fn controller_config(scene: Scene, base: &ControllerConfig) -> ControllerConfig {
+    let mut config = base.clone();
+    config.gravity = Some(vec![0.0, -9.8]);
     if scene.apic {
         // The stability limit told that the scheme transfers velocities by APIC with
         // quadratic B-splines (inertia h²/4): a property of the scheme, not a tuning.
         config.stability_nd.transfer = TransferNd::Apic { inertia: 0.25 };
     }
-    standard_limits::<2>(&config, Vector::<2>::new(0.0, -9.8))
+    config
 }

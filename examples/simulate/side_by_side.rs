@@ -18,7 +18,7 @@ fn timed_controller<const D: usize>(
     config: &ControllerConfig,
 ) -> Result<f64, String>
 where
-    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>> + mpm_dt::controller::StandardLimits<D>,
 {
     let mut s = template.clone();
     // The limits on the solver's threads, as `simulate --threads` sets them.
@@ -60,7 +60,7 @@ pub fn fixed_rules<const D: usize>(
     repeat: usize,
 ) -> Result<SideBySide, String>
 where
-    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>> + mpm_dt::controller::StandardLimits<D>,
 {
     let repeat = if reached { repeat } else { 1 };
     let alphas = [0.4, 0.5];

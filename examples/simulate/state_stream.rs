@@ -14,7 +14,7 @@ pub type StateWriter = Box<dyn FnOnce(&mut dyn Write) -> std::io::Result<()>>;
 /// A writer of `s`'s committed state, taking the solver along.
 pub fn writer<const D: usize>(s: SolverNd<D>) -> StateWriter
 where
-    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>> + mpm_dt::controller::StandardLimits<D>,
 {
     Box::new(move |out| {
         let view = s.view();

@@ -25,8 +25,6 @@ mod repeats;
 mod solver;
 
 use mpm_dt::controller::{Controller, ControllerConfig};
-use mpm_dt::limits_nd::standard_limits;
-use mpm_dt::nd::Vector;
 use mpm_dt::Stepper;
 use nalgebra::Vector2;
 use solver::FlipSolver;
@@ -129,11 +127,10 @@ fn run_controlled(scene: Scene) -> (Run, String) {
     let mut s = scene.build(scene.opt_in);
     let mut config = ControllerConfig::default();
     config.stability_nd.full_map = scene.full_map;
-    let gravity = Vector::<2>::new(scene.gravity()[0], scene.gravity()[1]);
-    let limits = standard_limits::<2>(&config, gravity);
+    config.gravity = Some(scene.gravity().as_slice().to_vec());
     let started = std::time::Instant::now();
     let mut tracking = String::new();
-    let result = Controller::<2>::new(config, limits)
+    let result = Controller::<2>::standard(config)
         .map_err(|e| e.to_string())
         .and_then(|mut c| {
             let mut last = (0.0, 0.0, 0.0);

@@ -89,7 +89,7 @@ pub fn run_nd<const D: usize, S: Stepper<D>>(
     energy: &dyn Fn(&S) -> f64,
 ) -> Result<EndState, String>
 where
-    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>> + mpm_dt::controller::StandardLimits<D>,
 {
     let e0 = energy(&s);
     let grew = |e: f64| !e.is_finite() || e > ENERGY_GROWTH * e0.abs().max(f64::MIN_POSITIVE);

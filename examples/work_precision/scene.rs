@@ -47,7 +47,7 @@ fn mpm88_energy(s: &MlsMpm) -> f64 {
 
 fn nd_totals<const D: usize>(s: &SolverNd<D>) -> (usize, f64, f64)
 where
-    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>> + mpm_dt::controller::StandardLimits<D>,
 {
     let mass = s.view().mass.iter().sum();
     (s.n_particles(), s.total_energy(), mass)
@@ -138,8 +138,8 @@ impl Scene {
                     ..*scene
                 });
                 let controller = |c: ControllerConfig| {
-                    let limits = mpm88::limits(*scene, &c);
-                    Controller::<2>::new(c, limits).map_err(|e| e.to_string())
+                    Controller::<2>::standard(mpm88::controller_config(*scene, &c))
+                        .map_err(|e| e.to_string())
                 };
                 run_nd(
                     solver,
@@ -155,7 +155,7 @@ impl Scene {
 
     fn run_nd<const D: usize>(&self, s: &ScenarioNd, policy: Policy) -> Result<EndState, String>
     where
-        Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+        Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>> + mpm_dt::controller::StandardLimits<D>,
         SolverNd<D>: Stepper<D>,
     {
         let (solver, _) = s.build::<D>().map_err(|e| e.to_string())?;

@@ -133,7 +133,8 @@ where
 /// * ``config`` -- the controller configuration as a dict, the JSON ``ControllerConfig`` of
 ///   the Rust library (e.g. ``{"stability": {"safety": 0.9}, "temporal": {"enabled":
 ///   False}}``); ``None`` for the defaults. Unknown keys raise ``ConfigError``;
-/// * ``gravity`` -- the body force, ``dim`` floats (zero by default).
+/// * ``gravity`` -- the body force, ``dim`` floats (zero by default; the config's
+///   ``"gravity"`` may give it instead).
 ///
 /// The controller applies the library's standard limits as ``config`` enables them: the
 /// sound-speed cap ``alpha * min_p min_a h_a / (c_p + |v_a|)`` (eq 49), the stability
@@ -197,12 +198,25 @@ impl PyController {
                 .extract::<String>()?,
             None => "{}".to_string(),
         };
-        let config = ControllerConfig::from_json(&config_json)
+        let mut config = ControllerConfig::from_json(&config_json)
             .map_err(|e| error(py, "ConfigError", e.to_string()))?;
         config
             .validate()
             .map_err(|e| error(py, "ConfigError", e.to_string()))?;
-        let gravity = gravity.unwrap_or_else(|| vec![0.0; dim]);
+        // The body force from the argument or the config's `"gravity"` (the same value if
+        // both are given), zero when neither is.
+        if let (Some(arg), Some(set)) = (&gravity, &config.gravity) {
+            if arg != set {
+                return Err(error(
+                    py,
+                    "ConfigError",
+                    format!("gravity = {arg:?} contradicts config[\"gravity\"] = {set:?}"),
+                ));
+            }
+        }
+        let gravity = gravity
+            .or_else(|| config.gravity.clone())
+            .unwrap_or_else(|| vec![0.0; dim]);
         if gravity.len() != dim || gravity.iter().any(|g| !g.is_finite()) {
             return Err(error(
                 py,
@@ -210,6 +224,7 @@ impl PyController {
                 format!("gravity must be {dim} finite numbers, got {gravity:?}"),
             ));
         }
+        config.gravity = Some(gravity.clone());
         Ok(Self {
             dim,
             config,

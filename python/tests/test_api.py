@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import mpm_dt
+from conftest import numpy_bar
 
 DECISION_FIELDS = {
     "step", "attempt", "t", "dt", "limits", "filter_dt", "binding", "bound58",
@@ -94,3 +95,14 @@ def test_help_reads_like_docs() -> None:
     assert "try_step" in doc and "StepFailed" in doc and "eq 56" in doc
     assert "E_max" in (mpm_dt.max_stable_modulus.__doc__ or "")
     assert "dt_eq56" in (mpm_dt.critical_dt.__doc__ or "")
+
+
+def test_gravity_from_the_config_is_the_gravity_argument() -> None:
+    def dts(**kwargs: Any) -> list[float]:
+        decisions: list[dict[str, Any]] = []
+        mpm_dt.Controller(dim=2, **kwargs).run_until(numpy_bar.NumpyBar(cells=8), 0.05, decisions.append)
+        return [d["dt"] for d in decisions]
+
+    by_argument = dts(gravity=(0.0, -1.0))
+    assert dts(config={"gravity": [0.0, -1.0]}) == by_argument
+    assert dts(config={"gravity": [0.0, -1.0]}, gravity=(0.0, -1.0)) == by_argument

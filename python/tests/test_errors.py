@@ -169,6 +169,8 @@ def test_t_end_not_after_time_is_invalid_end(bar: Any) -> None:
     (dict(dim=2, config={"no_such_key": 1}), "no_such_key"),
     (dict(dim=2, config={"safety": -1.0}), "safety"),
     (dict(dim=2, gravity=(0.0, 1.0, 2.0)), "gravity"),
+    (dict(dim=2, config={"gravity": [0.0, -9.8, 0.0]}), "gravity"),
+    (dict(dim=2, config={"gravity": [0.0, -9.8]}, gravity=(0.0, -1.0)), "contradicts"),
 ])
 def test_invalid_controllers_are_config_errors(kwargs: dict[str, Any], match: str) -> None:
     with pytest.raises(mpm_dt.ConfigError, match=match):

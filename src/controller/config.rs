@@ -107,6 +107,14 @@ pub struct ControllerConfig {
     /// `stability: null` leaves the limit out in every dimension. Setting any field in a 1D
     /// run is an error ([`ControllerConfig::validate_for`]).
     pub stability_nd: StabilityNdConfig,
+    /// 2D/3D only: the body force per unit mass the stepper applies (gravity), one
+    /// component per axis, e.g. `[0.0, -9.8]`; `None` (default) for none. The growth monitor
+    /// ([`crate::limits_nd::GrowthNd`]) counts its potential energy `−Σ m_p g·x_p`: without it
+    /// a falling body's rising kinetic energy reads as growth. [`super::Controller::standard`]
+    /// passes it to the monitor; [`crate::limits_nd::standard_limits`] takes the body force as
+    /// its argument instead. Its length must be the run's dimension, and it is refused in 1D
+    /// runs (the 1D monitor counts no potential energy; [`ControllerConfig::validate_for`]).
+    pub gravity: Option<Vec<f64>>,
 }
 
 impl Default for ControllerConfig {
@@ -133,6 +141,7 @@ impl Default for ControllerConfig {
             }),
             sound_speed: Some(SoundSpeedConfig { alpha: 1.0 }),
             stability_nd: StabilityNdConfig::default(),
+            gravity: None,
         }
     }
 }
@@ -173,6 +182,17 @@ pub enum ConfigError {
         dim: usize,
         /// Where the field applies, in words.
         applies: &'static str,
+    },
+    /// A per-axis field has a component count other than the run's dimension
+    /// ([`ControllerConfig::validate_for`]).
+    #[error("controller config: {field} has {len} components; a {dim}D run needs {dim}")]
+    WrongLength {
+        /// Field path, e.g. `"gravity"`.
+        field: &'static str,
+        /// The number of components given.
+        len: usize,
+        /// The run's dimension.
+        dim: usize,
     },
     /// The JSON could not be parsed into a config.
     #[error("controller config: {message}")]
@@ -333,6 +353,9 @@ impl ControllerConfig {
             nd.safety = c.safety;
         }
         nd.validate()?;
+        for &g in self.gravity.iter().flatten() {
+            check("gravity", g, g.is_finite(), "finite in every component")?;
+        }
         if let Some(c) = self.stability {
             crate::stability::Stability::new(c).map_err(|e| stability_field(e, "stability"))?;
         }

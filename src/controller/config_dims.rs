@@ -13,6 +13,7 @@
 //! | `growth.enabled`, `window`, `windows`, `safety_factor`, `min_safety_scale` | ✓ | ✓ |
 //! | `growth.indicator`, `factor`, `floor`, `energy_confirm` (the checkerboard share) | ✓ | refused |
 //! | `growth.energy_tol` (the 2D/3D energy monitor's tolerance) | refused | ✓ |
+//! | `gravity` (the 2D/3D energy monitor's potential energy; one component per axis) | refused | ✓ |
 //!
 //! "Refused": a value other than the default is a [`ConfigError::NotInDimension`] naming
 //! the field, so that no setting is ignored without a word. The growth monitors differ by
@@ -53,7 +54,19 @@ impl ControllerConfig {
             if self.growth.energy_tol != GrowthConfig::default().energy_tol {
                 return refuse("growth.energy_tol", ND_GROWTH);
             }
+            if self.gravity.is_some() {
+                return refuse("gravity", ND_GROWTH);
+            }
         } else {
+            if let Some(g) = &self.gravity {
+                if g.len() != dim {
+                    return Err(ConfigError::WrongLength {
+                        field: "gravity",
+                        len: g.len(),
+                        dim,
+                    });
+                }
+            }
             if let Some(field) = self.stability.as_ref().and_then(changed_1d_stability) {
                 return refuse(field, ONE_D_STABILITY);
             }

@@ -28,8 +28,9 @@
 //! state only through the limits and [`crate::StateView`] (time, step, the non-finite
 //! check, and the door check of every view before a limit reads it:
 //! [`crate::view_check`], ending the run with [`ControllerError::InvalidView`]). A 2D or
-//! 3D solver is driven exactly like a 1D one, with d-dimensional limits
-//! (`Controller::<2>::new(config, limits)`).
+//! 3D solver is driven exactly like a 1D one, with d-dimensional limits:
+//! `Controller::<2>::standard(config)` builds the standard ones in any dimension
+//! ([`StandardLimits`]), `Controller::<2>::new(config, limits)` takes any list.
 //!
 //! Every attempt yields a [`Decision`], emitted as an INFO `tracing` event inside one
 //! `step` span per step (DEBUG events carry each limit's proposal and verdict), counted in
@@ -55,6 +56,7 @@ mod error;
 mod filter;
 mod growth;
 mod scaled;
+mod standard;
 mod stats;
 mod temporal_config;
 mod temporal_error;
@@ -72,6 +74,7 @@ pub use growth::{
 #[cfg(feature = "reference")]
 pub(crate) use growth::{particle_energy, sum_energy_lanes, ENERGY_LANES};
 pub use scaled::SafetyScaled;
+pub use standard::StandardLimits;
 pub use stats::Stats;
 pub use temporal_config::TemporalErrorConfig;
 pub use temporal_error::{TemporalError, TEMPORAL_ERROR};
@@ -311,50 +314,6 @@ where
 
 /// The 1D constructors: the library's 1D limits.
 impl Controller {
-    /// A controller with `limits` (e.g. the sound-speed and stability limits, users' own)
-    /// followed by the [`TemporalError`] limit and the [`GrowthMonitor`] when the config
-    /// enables them.
-    pub fn with_default_limits(
-        config: ControllerConfig,
-        mut limits: Vec<Box<dyn StepLimit>>,
-    ) -> Result<Self, ControllerError> {
-        config.validate()?;
-        if config.temporal.enabled {
-            limits.push(Box::new(TemporalError::new(config.temporal.clone())?));
-        }
-        if config.growth.enabled {
-            limits.push(Box::new(GrowthMonitor::new(config.growth.clone())?));
-        }
-        Self::new(config, limits)
-    }
-
-    /// The standard mpm-dt controller: the three limits of the paper — the
-    /// [`crate::stability::SoundSpeed`] cap (eq 49 with `|v|`), the
-    /// [`crate::stability::Stability`] limit (eqs 56–58, tracked λmax), the [`TemporalError`]
-    /// (eqs 20–30) — and the [`GrowthMonitor`], each as `config` enables and sets it.
-    /// Users add their own limits with [`Controller::with_default_limits`].
-    pub fn standard(config: ControllerConfig) -> Result<Self, ControllerError> {
-        config.validate()?;
-        let mut limits: Vec<Box<dyn StepLimit>> = Vec::new();
-        // Both configs were validated just above, so construction cannot fail; map anyway.
-        let invalid = |e: crate::stability::StabilityError| {
-            ControllerError::Config(ConfigError::Parse {
-                message: e.to_string(),
-            })
-        };
-        if let Some(c) = config.sound_speed {
-            limits.push(Box::new(
-                crate::stability::SoundSpeed::new(c).map_err(invalid)?,
-            ));
-        }
-        if let Some(c) = config.stability {
-            limits.push(Box::new(
-                crate::stability::Stability::new(c).map_err(invalid)?,
-            ));
-        }
-        Self::with_default_limits(config, limits)
-    }
-
     /// Rebuilds a 1D controller from a checkpoint and freshly constructed limits (same
     /// names, same order as when it was saved); each limit's state is restored.
     /// [`Controller::from_checkpoint`] does the same in any dimension.

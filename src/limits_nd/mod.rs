@@ -33,9 +33,12 @@
 //! let mut solver = SolverNd::new(grid, ShapeNd::Gimp, particles, Vector::<2>::zeros())?;
 //! let config = ControllerConfig::default();
 //! let limits = standard_limits::<2>(&config, Vector::<2>::zeros());
-//! let mut controller = Controller::<2>::new(config, limits)?;
+//! let mut controller = Controller::<2>::new(config.clone(), limits)?;
 //! controller.run_until(&mut solver, 0.5, &mut |_| {})?;
 //! assert!((solver.time() - 0.5).abs() < 1e-12);
+//! // The same limits in one call, gravity (here none) from `config.gravity`:
+//! let same = Controller::<2>::standard(config)?;
+//! assert_eq!(same.limit_names(), controller.limit_names());
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
@@ -69,12 +72,25 @@ use crate::limit::StepLimit;
 use crate::nd::{Vector, ViewNd};
 
 /// The standard limits of a d-dimensional run, as `config` enables and sets them
-/// (module docs): sound speed, stability, temporal error, growth. `gravity` is the run's body force (the
-/// growth monitor counts its potential energy).
+/// (module docs): sound speed, stability, temporal error, growth. `gravity` is the run's
+/// body force (the growth monitor counts its potential energy); `config.gravity` is not
+/// read here. [`crate::controller::Controller::standard`] builds the same list with
+/// `config.gravity`.
 pub fn standard_limits<const D: usize>(
     config: &ControllerConfig,
     gravity: Vector<D>,
 ) -> Vec<Box<dyn StepLimit<D>>>
+where
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+{
+    let mut limits = paper_limits(config);
+    limits.extend(default_limits(config, gravity));
+    limits
+}
+
+/// The first half of [`standard_limits`]: the sound-speed cap and the stability limit, as
+/// `config.sound_speed` and `config.stability` enable them.
+pub fn paper_limits<const D: usize>(config: &ControllerConfig) -> Vec<Box<dyn StepLimit<D>>>
 where
     Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
 {
@@ -88,6 +104,19 @@ where
             ..config.stability_nd.clone()
         })));
     }
+    limits
+}
+
+/// The second half of [`standard_limits`]: the temporal error and the growth monitor (with
+/// body force `gravity`), as `config.temporal.enabled` and `config.growth.enabled` say.
+pub fn default_limits<const D: usize>(
+    config: &ControllerConfig,
+    gravity: Vector<D>,
+) -> Vec<Box<dyn StepLimit<D>>>
+where
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+{
+    let mut limits: Vec<Box<dyn StepLimit<D>>> = Vec::new();
     if config.temporal.enabled {
         limits.push(Box::new(TemporalErrorNd::<D>::new(config.temporal.clone())));
     }
