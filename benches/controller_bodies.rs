@@ -17,8 +17,9 @@
 //! time ratio the run's wall ratio. `cargo bench --bench controller_bodies`.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use mpm_dt::controller::standard_limits;
 use mpm_dt::controller::Controller;
-use mpm_dt::limits_nd::{standard_limits, SoundSpeedNd};
+use mpm_dt::limits_nd::SoundSpeedNd;
 use mpm_dt::nd::scenario::ScenarioNd;
 use mpm_dt::nd::{SolverNd, Vector};
 use mpm_dt::{Dim, Dimension, Stepper, ViewNd};

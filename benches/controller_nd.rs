@@ -19,8 +19,9 @@
 
 use common::solver;
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use mpm_dt::controller::standard_limits;
 use mpm_dt::controller::{Controller, ControllerConfig};
-use mpm_dt::limits_nd::{standard_limits, SoundSpeedNd};
+use mpm_dt::limits_nd::SoundSpeedNd;
 use mpm_dt::nd::{ShapeNd, SolverNd, Vector};
 use mpm_dt::{Dim, Dimension, Stepper, ViewNd};
 use std::hint::black_box;

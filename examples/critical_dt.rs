@@ -131,7 +131,7 @@ where
     let gravity = mpm_dt::nd::Vector::<D>::zeros();
     let view = solver.view();
     let mut dt_controller = f64::INFINITY;
-    for mut limit in mpm_dt::limits_nd::standard_limits::<D>(&config, gravity) {
+    for mut limit in mpm_dt::controller::standard_limits::<D>(&config, gravity) {
         dt_controller = dt_controller.min(limit.propose(&view)?.dt);
     }
     let best_known = table

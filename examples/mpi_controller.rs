@@ -30,8 +30,8 @@
 //! arguments.
 
 use mpi::topology::Communicator;
+use mpm_dt::controller::standard_limits;
 use mpm_dt::controller::{Controller, ControllerConfig, Outcome};
-use mpm_dt::limits_nd::standard_limits;
 use mpm_dt::nd::{GridNd, MaterialNd, ParticlesNd, ShapeNd, SolverNd, Vector};
 use mpm_dt::reduce::{MpiReduce, Reduce, Timed};
 use mpm_dt::stepper::StepError;

@@ -14,7 +14,7 @@
 //! slices because the 1D kernels (and every result they pin) are written against them.
 
 use crate::nd::ViewNd;
-use crate::stepper::View;
+use crate::view::View;
 use crate::view_check::ViewError;
 
 /// The dimension `D` as a type (`Dim<2>`), so that it can carry the view type.
@@ -80,7 +80,7 @@ impl StateView for View<'_> {
     }
 
     fn first_nonfinite(&self) -> Option<(&'static str, usize, f64)> {
-        crate::controller::first_nonfinite(self)
+        crate::view_check::first_nonfinite(self)
     }
 
     fn check_shape(&self) -> Result<usize, ViewError> {
@@ -89,5 +89,58 @@ impl StateView for View<'_> {
 
     fn check_contents(&self) -> Result<(), ViewError> {
         View::check_contents(self)
+    }
+}
+
+impl<const D: usize> StateView for ViewNd<'_, D> {
+    fn time(&self) -> f64 {
+        self.t
+    }
+
+    fn step_index(&self) -> u64 {
+        self.step
+    }
+
+    fn particle_count(&self) -> usize {
+        self.x.len()
+    }
+
+    fn check_shape(&self) -> Result<usize, ViewError> {
+        ViewNd::check_shape(self)
+    }
+
+    fn check_contents(&self) -> Result<(), ViewError> {
+        ViewNd::check_contents(self)
+    }
+
+    fn first_nonfinite(&self) -> Option<(&'static str, usize, f64)> {
+        // The stepper's own check, when it made one.
+        if self.summary.is_some_and(|s| s.finite) {
+            return None;
+        }
+        fn scan<'b, I: Iterator<Item = &'b f64>>(p: usize, it: I) -> Option<(usize, f64)> {
+            it.copied().find(|v| !v.is_finite()).map(|v| (p, v))
+        }
+        for (p, x) in self.x.iter().enumerate() {
+            if let Some((p, v)) = scan(p, x.iter()) {
+                return Some(("x", p, v));
+            }
+        }
+        for (p, x) in self.v.iter().enumerate() {
+            if let Some((p, v)) = scan(p, x.iter()) {
+                return Some(("v", p, v));
+            }
+        }
+        for (p, x) in self.sigma.iter().enumerate() {
+            if let Some((p, v)) = scan(p, x.iter()) {
+                return Some(("sigma", p, v));
+            }
+        }
+        for (p, x) in self.f.iter().enumerate() {
+            if let Some((p, v)) = scan(p, x.iter()) {
+                return Some(("F", p, v));
+            }
+        }
+        None
     }
 }

@@ -61,7 +61,7 @@
 //! | stability (eq 56) | [`stability::Stability`]: certified tracker, eq 58 | [`limits_nd::StabilityNd`]: Lanczos with a motion guard, the element bound |
 //! | temporal error (eqs 20–30) | [`controller::TemporalError`] | [`limits_nd::TemporalErrorNd`] |
 //! | growth monitor | [`controller::GrowthMonitor`] (checkerboard share) | [`limits_nd::GrowthNd`] (energy) |
-//! | the standard controller | [`controller::Controller::standard`] (`Controller::<1>`) | [`controller::Controller::standard`] (`Controller::<2>`, `Controller::<3>`; gravity from `config.gravity`), or [`limits_nd::standard_limits`] + [`controller::Controller::new`] |
+//! | the standard controller | [`controller::Controller::standard`] (`Controller::<1>`) | [`controller::Controller::standard`] (`Controller::<2>`, `Controller::<3>`; gravity from `config.gravity`), or [`controller::standard_limits`] + [`controller::Controller::new`] |
 //! | reference solver | [`mpm::ReferenceStepper`] | [`nd::SolverNd`] |
 //! | scenarios, exact problems | [`scenario`], [`problems`] | [`nd::scenario`], [`nd::problems`] |
 //! | spatial error estimators (eqs 31–44) | [`estimators`] | — |
@@ -90,6 +90,7 @@
 // (the default); without it they are left as text.
 #![cfg_attr(not(feature = "reference"), allow(rustdoc::broken_intra_doc_links))]
 
+pub mod config_error;
 pub mod controller;
 mod cpu;
 pub mod dimension;
@@ -104,7 +105,6 @@ pub mod memory;
 pub mod mpm;
 pub mod nd;
 pub mod nodal_stiffness;
-pub mod pass_summary;
 #[cfg(feature = "reference")]
 pub mod problems;
 mod recycled;
@@ -116,6 +116,9 @@ pub mod stability;
 mod stencil;
 pub mod stepper;
 pub mod synchronized_velocity;
+pub mod temporal;
+pub mod view;
+pub use view::pass_summary;
 pub mod view_check;
 pub mod view_weights;
 pub mod weights;

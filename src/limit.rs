@@ -118,6 +118,19 @@ impl Judgement {
     }
 }
 
+/// Names of the metrics the controller reads from the limits.
+pub mod metric {
+    /// Scaled temporal error (eqs 20–30), `dsm ≤ 1` accepts; fed to the filter.
+    pub const DSM: &str = "dsm";
+    /// A deferred temporal-error check's predicted `dsm` (not measured; not fed to the
+    /// filter; [`crate::temporal::deferral`]).
+    pub const DSM_PREDICTED: &str = "dsm_predicted";
+    /// Largest eigenvalue of `D*F` (eq 56) tracked by the stability limit.
+    pub const LAMBDA_MAX: &str = "lambda_max";
+    /// The eq 58 lower bound on the amplification-matrix norm.
+    pub const BOUND58: &str = "bound58";
+}
+
 /// A limit failed to evaluate (bad state, not a rejected step).
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 #[non_exhaustive]

@@ -3,8 +3,9 @@
 //! setting of the stability and growth limits is reachable from the JSON config and
 //! changes what a 2D run does.
 
+use mpm_dt::controller::standard_limits;
 use mpm_dt::controller::{ConfigError, Controller, ControllerConfig, ControllerError, Decision};
-use mpm_dt::limits_nd::{standard_limits, STABILITY};
+use mpm_dt::limits_nd::STABILITY;
 use mpm_dt::nd::{GridNd, MaterialNd, ParticlesNd, ShapeNd, SolverNd, Vector};
 use mpm_dt::Boundary;
 

@@ -2,8 +2,8 @@
 //! dimension from the config alone, gravity included (`config.gravity`, the 2D/3D growth
 //! monitor's potential energy), and takes the same steps as the limits built by hand.
 
+use mpm_dt::controller::standard_limits;
 use mpm_dt::controller::{ConfigError, Controller, ControllerConfig, ControllerError, Decision};
-use mpm_dt::limits_nd::standard_limits;
 use mpm_dt::nd::{GridNd, MaterialNd, ParticlesNd, ShapeNd, SolverNd, Vector};
 use mpm_dt::{Boundary, Stepper};
 

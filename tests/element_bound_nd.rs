@@ -4,10 +4,11 @@
 //! factors, at least the library's), and the stability limit steps on it only where
 //! it is tight: the steps it proposes never exceed the frozen-particle limit it certifies.
 
+use mpm_dt::controller::standard_limits;
 use mpm_dt::controller::{Controller, ControllerConfig, Outcome};
 use mpm_dt::limits_nd::element_bound::element_bound;
 use mpm_dt::limits_nd::stiffness::dense_lambda_max;
-use mpm_dt::limits_nd::{standard_limits, SoundSpeedNd, StabilityNd, StabilityNdConfig, STABILITY};
+use mpm_dt::limits_nd::{SoundSpeedNd, StabilityNd, StabilityNdConfig, STABILITY};
 use mpm_dt::nd::{GridNd, MaterialNd, ParticlesNd, ShapeNd, SolverNd, Vector};
 use mpm_dt::reduce::SingleProcess;
 use mpm_dt::{Boundary, Dim, Dimension, Stepper, ViewNd};

@@ -3,9 +3,9 @@
 //! `dt_eq56 = h_min/(√2 c_p)`, `dt_eq56 ≤ dt_full_map ≤ 1.003·dt_empirical` on small 2D and
 //! 3D layouts, and the controller runs 2D and 3D solvers without blow-up.
 
+use mpm_dt::controller::standard_limits;
 use mpm_dt::controller::{Controller, ControllerConfig};
 use mpm_dt::limits_nd::critical::{critical_table, lambda_max};
-use mpm_dt::limits_nd::standard_limits;
 use mpm_dt::nd::{GridNd, MaterialNd, ParticlesNd, ShapeNd, SolverNd, Vector};
 use mpm_dt::{Boundary, Dim, Dimension, Stepper, ViewNd};
 

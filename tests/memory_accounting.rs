@@ -12,8 +12,8 @@
 //! One `#[test]`: the counter is global, so no other test of this binary may allocate
 //! while it measures.
 
+use mpm_dt::controller::standard_limits;
 use mpm_dt::controller::Controller;
-use mpm_dt::limits_nd::standard_limits;
 use mpm_dt::nd::scenario::ScenarioNd;
 use mpm_dt::nd::Vector;
 use mpm_dt::{Dim, Dimension, Stepper, ViewNd};

@@ -5,8 +5,8 @@
 //! to 10⁻⁹, same particle state to 10⁻¹⁰), and a rejected trial leaves its state bit for bit. Several processes are
 //! tested under MPI in `tests/mpi_ranks.rs` (feature `mpi`).
 
+use mpm_dt::controller::standard_limits;
 use mpm_dt::controller::{Controller, Outcome};
-use mpm_dt::limits_nd::standard_limits;
 use mpm_dt::nd::scenario::ScenarioNd;
 use mpm_dt::nd::{SolverNd, Vector};
 use mpm_dt::reduce::SingleProcess;

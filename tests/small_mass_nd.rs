@@ -5,8 +5,9 @@
 //! controller, which tracks `λmax(M⁻¹K)` as the light node comes and goes, runs to
 //! `t_end` without energy growth.
 
+use mpm_dt::controller::standard_limits;
 use mpm_dt::controller::Controller;
-use mpm_dt::limits_nd::{standard_limits, SoundSpeedNd};
+use mpm_dt::limits_nd::SoundSpeedNd;
 use mpm_dt::nd::scenario::ScenarioNd;
 use mpm_dt::nd::{SolverNd, Vector};
 use mpm_dt::Stepper;

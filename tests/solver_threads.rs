@@ -3,8 +3,8 @@
 //! step names the same particle and leaves the state as it was; and under the controller
 //! the same decisions on any number of threads.
 
+use mpm_dt::controller::standard_limits;
 use mpm_dt::controller::{Controller, ControllerConfig};
-use mpm_dt::limits_nd::standard_limits;
 use mpm_dt::nd::{GridNd, MaterialNd, ParticlesNd, ShapeNd, SolverNd, Vector};
 use mpm_dt::{Boundary, Dim, Dimension, Stepper, ViewNd};
 

@@ -10,10 +10,11 @@
 #[path = "common/jitter.rs"]
 mod jitter;
 use jitter::jitter;
+use mpm_dt::controller::standard_limits;
 use mpm_dt::controller::{Controller, ControllerConfig};
 use mpm_dt::limit::StepLimit;
 use mpm_dt::limits_nd::stiffness::dense_lambda_max;
-use mpm_dt::limits_nd::{standard_limits, StabilityNd, StabilityNdConfig};
+use mpm_dt::limits_nd::{StabilityNd, StabilityNdConfig};
 use mpm_dt::nd::{GridNd, MaterialNd, ParticlesNd, ShapeNd, SolverNd, Tensor, Vector};
 use mpm_dt::{Boundary, Stepper};
 

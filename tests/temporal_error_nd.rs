@@ -4,9 +4,10 @@
 //! a setting it cannot honour (the 1D-only balancing, a restored state whose arrays do not
 //! belong together) is a typed error, not ignored.
 
+use mpm_dt::controller::standard_limits;
 use mpm_dt::controller::{bound, metric, Controller, ControllerConfig, Outcome};
 use mpm_dt::limit::StepLimit;
-use mpm_dt::limits_nd::{standard_limits, TemporalErrorNd};
+use mpm_dt::limits_nd::TemporalErrorNd;
 use mpm_dt::nd::scenario::ScenarioNd;
 use mpm_dt::nd::{SolverNd, Vector};
 use mpm_dt::Stepper;

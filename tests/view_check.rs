@@ -5,9 +5,10 @@
 //! the array, the particle or node and the value: no panic, no silent run. Valid views
 //! (periodic, walls, 3D, a decomposed grid) pass.
 
+use mpm_dt::controller::standard_limits;
 use mpm_dt::controller::{Controller, ControllerConfig, ControllerError};
 use mpm_dt::limit::StepLimit;
-use mpm_dt::limits_nd::{standard_limits, SoundSpeedNd};
+use mpm_dt::limits_nd::SoundSpeedNd;
 use mpm_dt::nd::scenario::ScenarioNd;
 use mpm_dt::nd::{GridNd, SolverNd, Vector, WeightsNd};
 use mpm_dt::{StepError, Stepper, ViewError, ViewNd};

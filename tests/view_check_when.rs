@@ -3,8 +3,8 @@
 //! every `VIEW_CHECK_CADENCE`-th step; in a distributed run the processes agree on the
 //! outcome before any limit reads the view.
 
+use mpm_dt::controller::standard_limits;
 use mpm_dt::controller::{Controller, ControllerConfig, ControllerError};
-use mpm_dt::limits_nd::standard_limits;
 use mpm_dt::nd::scenario::ScenarioNd;
 use mpm_dt::nd::{SolverNd, Vector, WeightsNd};
 use mpm_dt::view_check::VIEW_CHECK_CADENCE;

@@ -4,8 +4,9 @@
 use crate::convert::{decision_dict, summary_dict};
 use crate::errors::{controller_error, error};
 use crate::stepper::{Pending, PyStepper};
+use mpm_dt::controller::standard_limits;
 use mpm_dt::controller::{Controller, ControllerConfig, Decision, Outcome};
-use mpm_dt::limits_nd::{standard_limits, TransferNd};
+use mpm_dt::limits_nd::TransferNd;
 use mpm_dt::nd::{Vector, ViewNd};
 use mpm_dt::{Dim, Dimension};
 use pyo3::prelude::*;

@@ -17,10 +17,13 @@
 
 use super::filter::FilterPreset;
 use super::growth::GrowthConfig;
-use super::temporal_config::TemporalErrorConfig;
 use crate::limits_nd::StabilityNdConfig;
 use crate::stability::{SoundSpeedConfig, StabilityConfig, StabilityError};
+use crate::temporal::TemporalErrorConfig;
 use serde::{Deserialize, Serialize};
+
+pub(crate) use crate::config_error::check;
+pub use crate::config_error::ConfigError;
 
 /// Everything the [`super::Controller`] can be told. `Default` gives the documented
 /// defaults; [`ControllerConfig::validate`] checks every field.
@@ -111,7 +114,7 @@ pub struct ControllerConfig {
     /// component per axis, e.g. `[0.0, -9.8]`; `None` (default) for none. The growth monitor
     /// ([`crate::limits_nd::GrowthNd`]) counts its potential energy `−Σ m_p g·x_p`: without it
     /// a falling body's rising kinetic energy reads as growth. [`super::Controller::standard`]
-    /// passes it to the monitor; [`crate::limits_nd::standard_limits`] takes the body force as
+    /// passes it to the monitor; [`crate::controller::standard_limits`] takes the body force as
     /// its argument instead. Its length must be the run's dimension, and it is refused in 1D
     /// runs (the 1D monitor counts no potential energy; [`ControllerConfig::validate_for`]).
     pub gravity: Option<Vec<f64>>,
@@ -143,79 +146,6 @@ impl Default for ControllerConfig {
             stability_nd: StabilityNdConfig::default(),
             gravity: None,
         }
-    }
-}
-
-/// A configuration value out of its range. `field` is the JSON path of the field.
-#[derive(Clone, Debug, PartialEq, thiserror::Error)]
-#[non_exhaustive]
-pub enum ConfigError {
-    /// A number is outside its allowed range.
-    #[error("controller config: {field} = {} is invalid: must be {expected}", crate::fmt_num::Num(*value))]
-    OutOfRange {
-        /// Field path, e.g. `"safety"` or `"temporal.rtol"`.
-        field: &'static str,
-        /// The value given.
-        value: f64,
-        /// The allowed range in words.
-        expected: &'static str,
-    },
-    /// Two fields contradict each other.
-    #[error("controller config: {field} = {} contradicts {other} = {}", crate::fmt_num::Num(*value), crate::fmt_num::Num(*other_value))]
-    Inconsistent {
-        /// The field reported.
-        field: &'static str,
-        /// Its value.
-        value: f64,
-        /// The field it contradicts.
-        other: &'static str,
-        /// That field's value.
-        other_value: f64,
-    },
-    /// A field that does not apply in the run's dimension was set
-    /// ([`ControllerConfig::validate_for`]).
-    #[error("controller config: {field} does not apply in {dim}D runs (it is a setting of {applies}); remove it")]
-    NotInDimension {
-        /// Field path, e.g. `"stability.bound58_every"`.
-        field: &'static str,
-        /// The run's dimension.
-        dim: usize,
-        /// Where the field applies, in words.
-        applies: &'static str,
-    },
-    /// A per-axis field has a component count other than the run's dimension
-    /// ([`ControllerConfig::validate_for`]).
-    #[error("controller config: {field} has {len} components; a {dim}D run needs {dim}")]
-    WrongLength {
-        /// Field path, e.g. `"gravity"`.
-        field: &'static str,
-        /// The number of components given.
-        len: usize,
-        /// The run's dimension.
-        dim: usize,
-    },
-    /// The JSON could not be parsed into a config.
-    #[error("controller config: {message}")]
-    Parse {
-        /// The serde message (names the unknown or mistyped field).
-        message: String,
-    },
-}
-
-pub(crate) fn check(
-    field: &'static str,
-    value: f64,
-    ok: bool,
-    expected: &'static str,
-) -> Result<(), ConfigError> {
-    if ok && !value.is_nan() {
-        Ok(())
-    } else {
-        Err(ConfigError::OutOfRange {
-            field,
-            value,
-            expected,
-        })
     }
 }
 

@@ -8,18 +8,7 @@
 use crate::limit::{Metrics, RejectCause, Verdict};
 use serde::{Deserialize, Serialize};
 
-/// Names of the metrics the controller reads from the limits.
-pub mod metric {
-    /// Scaled temporal error (eqs 20–30), `dsm ≤ 1` accepts; fed to the filter.
-    pub const DSM: &str = "dsm";
-    /// A deferred temporal-error check's predicted `dsm` (not measured; not fed to the
-    /// filter; [`crate::controller::deferral`]).
-    pub const DSM_PREDICTED: &str = "dsm_predicted";
-    /// Largest eigenvalue of `D*F` (eq 56) tracked by the stability limit.
-    pub const LAMBDA_MAX: &str = "lambda_max";
-    /// The eq 58 lower bound on the amplification-matrix norm.
-    pub const BOUND58: &str = "bound58";
-}
+pub use crate::limit::metric;
 
 /// Names of the bounds on `dt` that are not limits.
 pub mod bound {

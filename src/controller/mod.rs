@@ -50,7 +50,6 @@ mod checkpoint;
 mod config;
 pub mod config_dims;
 mod decision;
-pub mod deferral;
 mod door;
 mod error;
 mod filter;
@@ -58,12 +57,11 @@ mod growth;
 mod scaled;
 mod standard;
 mod stats;
-mod temporal_config;
 mod temporal_error;
 mod temporal_kernels;
 
+pub use crate::temporal::{deferral, TemporalErrorConfig};
 pub use checkpoint::{Checkpoint, ControllerCheckpoint, ControllerState, LimitCheckpoint};
-pub(crate) use config::check;
 pub use config::{ConfigError, ControllerConfig};
 pub use decision::{bound, metric, Decision, LimitRecord, Outcome};
 pub use error::ControllerError;
@@ -74,15 +72,13 @@ pub use growth::{
 #[cfg(feature = "reference")]
 pub(crate) use growth::{particle_energy, sum_energy_lanes, ENERGY_LANES};
 pub use scaled::SafetyScaled;
-pub use standard::StandardLimits;
+pub use standard::{standard_limits, StandardLimits};
 pub use stats::Stats;
-pub use temporal_config::TemporalErrorConfig;
 pub use temporal_error::{TemporalError, TEMPORAL_ERROR};
 
 use crate::dimension::{Dim, Dimension};
 use crate::limit::StepLimit;
 use crate::stepper::Stepper;
-pub(crate) use crate::view_check::first_nonfinite;
 /// The adaptive controller. Owns its config, limits, filter and statistics; drives any
 /// `&mut dyn Stepper<D>` (`D = 1` by default).
 pub struct Controller<const D: usize = 1>
@@ -208,7 +204,7 @@ where
     /// Bytes of heap memory the controller holds between steps: its limits' arrays
     /// ([`StepLimit::memory_bytes`]) and the filter's history. What an embedding solver pays
     /// for the controller on top of its own state. With the standard 2D/3D limits
-    /// ([`crate::limits_nd::standard_limits`]) it is O(particles) for the temporal-error
+    /// ([`crate::controller::standard_limits`]) it is O(particles) for the temporal-error
     /// history (`(D + D(D+1)/2)·8` bytes a particle while the stresses are symmetric,
     /// `(D + D²)·8` otherwise) and the stability tracker's motion guard (`4D + 16`):
     /// 100 bytes a particle in 3D and 64 in 2D for the reference solver; plus O(nodes) for

@@ -21,7 +21,8 @@ use super::{ConfigError, Controller, ControllerConfig, ControllerError};
 use super::{GrowthMonitor, TemporalError};
 use crate::dimension::{Dim, Dimension};
 use crate::limit::StepLimit;
-use crate::nd::Vector;
+use crate::limits_nd::{GrowthNd, SoundSpeedNd, StabilityNd, StabilityNdConfig, TemporalErrorNd};
+use crate::nd::{Vector, ViewNd};
 
 /// The library's limits of one dimension, built from a [`ControllerConfig`] (module docs).
 /// Implemented for `Dim<1>`, `Dim<2>` and `Dim<3>`.
@@ -78,7 +79,7 @@ impl StandardLimits<1> for Dim<1> {
     }
 }
 
-/// The 2D/3D limits of `config` ([`crate::limits_nd::standard_limits`]' two halves); the
+/// The 2D/3D limits of `config` ([`standard_limits`]' two halves); the
 /// same for `Dim<2>` and `Dim<3>`.
 macro_rules! standard_limits_nd {
     ($d:literal) => {
@@ -86,16 +87,13 @@ macro_rules! standard_limits_nd {
             fn paper_limits(
                 config: &ControllerConfig,
             ) -> Result<Vec<Box<dyn StepLimit<$d>>>, ConfigError> {
-                Ok(crate::limits_nd::paper_limits::<$d>(config))
+                Ok(paper_limits::<$d>(config))
             }
 
             fn default_limits(
                 config: &ControllerConfig,
             ) -> Result<Vec<Box<dyn StepLimit<$d>>>, ConfigError> {
-                Ok(crate::limits_nd::default_limits::<$d>(
-                    config,
-                    gravity::<$d>(config)?,
-                ))
+                Ok(default_limits::<$d>(config, gravity::<$d>(config)?))
             }
         }
     };
@@ -145,4 +143,64 @@ where
         let limits = <Dim<D> as StandardLimits<D>>::paper_limits(&config)?;
         Self::with_default_limits(config, limits)
     }
+}
+
+/// The standard limits of a d-dimensional run, as `config` enables and sets them
+/// (module docs): sound speed, stability, temporal error, growth. `gravity` is the run's
+/// body force (the growth monitor counts its potential energy); `config.gravity` is not
+/// read here. [`Controller::standard`] builds the same list with
+/// `config.gravity`.
+pub fn standard_limits<const D: usize>(
+    config: &ControllerConfig,
+    gravity: Vector<D>,
+) -> Vec<Box<dyn StepLimit<D>>>
+where
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+{
+    let mut limits = paper_limits(config);
+    limits.extend(default_limits(config, gravity));
+    limits
+}
+
+/// The first half of [`standard_limits`]: the sound-speed cap and the stability limit, as
+/// `config.sound_speed` and `config.stability` enable them.
+fn paper_limits<const D: usize>(config: &ControllerConfig) -> Vec<Box<dyn StepLimit<D>>>
+where
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+{
+    let mut limits: Vec<Box<dyn StepLimit<D>>> = Vec::new();
+    if let Some(s) = &config.sound_speed {
+        limits.push(Box::new(SoundSpeedNd { alpha: s.alpha }));
+    }
+    if let Some(s) = &config.stability {
+        limits.push(Box::new(StabilityNd::<D>::new(StabilityNdConfig {
+            safety: s.safety,
+            ..config.stability_nd.clone()
+        })));
+    }
+    limits
+}
+
+/// The second half of [`standard_limits`]: the temporal error and the growth monitor (with
+/// body force `gravity`), as `config.temporal.enabled` and `config.growth.enabled` say.
+fn default_limits<const D: usize>(
+    config: &ControllerConfig,
+    gravity: Vector<D>,
+) -> Vec<Box<dyn StepLimit<D>>>
+where
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+{
+    let mut limits: Vec<Box<dyn StepLimit<D>>> = Vec::new();
+    if config.temporal.enabled {
+        limits.push(Box::new(TemporalErrorNd::<D>::new(config.temporal.clone())));
+    }
+    if config.growth.enabled {
+        let growth = &config.growth;
+        limits.push(Box::new(GrowthNd::new(
+            gravity,
+            growth.windows as usize * growth.window as usize,
+            growth.energy_tol,
+        )));
+    }
+    limits
 }

@@ -59,11 +59,12 @@
 
 use super::config::ConfigError;
 use super::decision::metric;
-use super::deferral::{self, Deferral, DeferredTrial, Scheduled};
-use super::temporal_config::TemporalErrorConfig;
 use super::temporal_kernels::{dispatch_rates, dispatch_sums, Fields, Terms};
 use crate::limit::{Judgement, LimitError, Metrics, Proposal, RejectCause, StepLimit, Verdict};
 use crate::stepper::View;
+use crate::temporal::deferral::{self, Deferral, DeferredTrial, Scheduled};
+use crate::temporal::TemporalErrorConfig;
+pub use crate::temporal::TEMPORAL_ERROR;
 use crate::weights::WeightKind;
 use serde::{Deserialize, Serialize};
 
@@ -119,9 +120,6 @@ pub struct TemporalError {
     /// The last judged trial when its check was deferred.
     deferred: Option<DeferredTrial>,
 }
-
-/// The name of the limit in logs and statistics.
-pub const TEMPORAL_ERROR: &str = "temporal_error";
 
 impl TemporalError {
     /// A limit with the given tolerances (validated).

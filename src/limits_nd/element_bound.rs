@@ -121,18 +121,9 @@ pub fn particle_bound<const D: usize>(
     )
 }
 
-/// One particle's `λ_p` (module docs) from its gradient metric `H_p`, given as its largest
-/// Gershgorin row sum `row_sum ≥ λmax(H_p)` and its trace, its `V_p/m_p` and its tangent
-/// moduli: `(V_p/m_p)·min(row_sum·max(Dλ_t + 2μ_t, 2μ_t), tr(H_p)·max(λ_t + 2μ_t, 2μ_t))`.
-/// What a stepper computes in its own pass to hand the bound over
-/// ([`crate::nd::SummaryNd::element_bound`]): for tensor-product weights `H_p` is diagonal,
-/// `H_aa = Σ_k s'_k²/s_k` over axis `a`'s weights; for MLS-MPM's gradients `H_p = (4/h²) I`.
-#[inline]
-pub fn from_metric<const D: usize>(row_sum: f64, trace: f64, per_mass: f64, l: f64, m: f64) -> f64 {
-    let c_vol = (D as f64 * l + 2.0 * m).max(2.0 * m);
-    let c_p = (l + 2.0 * m).max(2.0 * m);
-    per_mass * (row_sum * c_vol).min(trace * c_p)
-}
+/// One particle's `λ_p` from its gradient metric (defined beside the metric's kernels,
+/// which the solvers' own passes use too).
+pub use crate::nd::factor_metric::from_metric;
 
 /// The element bound of `view` (module docs): one pass over the particles' weights. In a
 /// run split over processes the largest over every process (one reduction with `reduce`).

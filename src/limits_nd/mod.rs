@@ -11,16 +11,18 @@
 //! * [`critical`] — the verification table of a d-dimensional layout (sound-speed step,
 //!   dense eq 56, empirical bisection on real runs).
 //!
-//! [`standard_limits`] builds the controller's list from a [`ControllerConfig`]:
+//! [`crate::controller::standard_limits`] builds the controller's list from a
+//! [`crate::controller::ControllerConfig`]:
 //! `sound_speed.alpha` → [`SoundSpeedNd`], `stability.safety` and `stability_nd` →
 //! [`StabilityNd`], `temporal` → [`TemporalErrorNd`] (when `temporal.enabled`),
 //! `growth.enabled`, `window`, `windows`, `energy_tol` → [`GrowthNd`] (over
 //! `windows · window` steps, default 100, tolerance 10 %). The fields that apply in 1D
-//! only are refused by the controller ([`ControllerConfig::validate_for`]).
+//! only are refused by the controller
+//! ([`crate::controller::ControllerConfig::validate_for`]).
 //!
 //! ```
 //! use mpm_dt::controller::{Controller, ControllerConfig};
-//! use mpm_dt::limits_nd::standard_limits;
+//! use mpm_dt::controller::standard_limits;
 //! use mpm_dt::nd::{GridNd, MaterialNd, ParticlesNd, ShapeNd, SolverNd, Vector};
 //! use mpm_dt::{Boundary, Stepper};
 //!
@@ -65,68 +67,3 @@ pub use stability::{StabilityNd, STABILITY};
 pub use stability_config::StabilityNdConfig;
 pub use temporal_error::TemporalErrorNd;
 pub use transfer::{apic_gain, TransferNd};
-
-use crate::controller::ControllerConfig;
-use crate::dimension::{Dim, Dimension};
-use crate::limit::StepLimit;
-use crate::nd::{Vector, ViewNd};
-
-/// The standard limits of a d-dimensional run, as `config` enables and sets them
-/// (module docs): sound speed, stability, temporal error, growth. `gravity` is the run's
-/// body force (the growth monitor counts its potential energy); `config.gravity` is not
-/// read here. [`crate::controller::Controller::standard`] builds the same list with
-/// `config.gravity`.
-pub fn standard_limits<const D: usize>(
-    config: &ControllerConfig,
-    gravity: Vector<D>,
-) -> Vec<Box<dyn StepLimit<D>>>
-where
-    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
-{
-    let mut limits = paper_limits(config);
-    limits.extend(default_limits(config, gravity));
-    limits
-}
-
-/// The first half of [`standard_limits`]: the sound-speed cap and the stability limit, as
-/// `config.sound_speed` and `config.stability` enable them.
-pub fn paper_limits<const D: usize>(config: &ControllerConfig) -> Vec<Box<dyn StepLimit<D>>>
-where
-    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
-{
-    let mut limits: Vec<Box<dyn StepLimit<D>>> = Vec::new();
-    if let Some(s) = &config.sound_speed {
-        limits.push(Box::new(SoundSpeedNd { alpha: s.alpha }));
-    }
-    if let Some(s) = &config.stability {
-        limits.push(Box::new(StabilityNd::<D>::new(StabilityNdConfig {
-            safety: s.safety,
-            ..config.stability_nd.clone()
-        })));
-    }
-    limits
-}
-
-/// The second half of [`standard_limits`]: the temporal error and the growth monitor (with
-/// body force `gravity`), as `config.temporal.enabled` and `config.growth.enabled` say.
-pub fn default_limits<const D: usize>(
-    config: &ControllerConfig,
-    gravity: Vector<D>,
-) -> Vec<Box<dyn StepLimit<D>>>
-where
-    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
-{
-    let mut limits: Vec<Box<dyn StepLimit<D>>> = Vec::new();
-    if config.temporal.enabled {
-        limits.push(Box::new(TemporalErrorNd::<D>::new(config.temporal.clone())));
-    }
-    if config.growth.enabled {
-        let growth = &config.growth;
-        limits.push(Box::new(GrowthNd::new(
-            gravity,
-            growth.windows as usize * growth.window as usize,
-            growth.energy_tol,
-        )));
-    }
-    limits
-}

@@ -433,7 +433,7 @@ impl<const D: usize> StabilityNd<D> {
                 self.tracking.calibrated_proposals as f64,
             );
         }
-        metrics.insert(crate::controller::metric::LAMBDA_MAX.into(), lambda);
+        metrics.insert(crate::limit::metric::LAMBDA_MAX.into(), lambda);
         if self.config.transfer != TransferNd::Flip || self.config.full_map {
             metrics.insert("transfer_gain".into(), self.gain);
         }

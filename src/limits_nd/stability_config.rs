@@ -3,7 +3,7 @@
 //! `stability.safety`, shared with 1D).
 
 use super::transfer::TransferNd;
-use crate::controller::{check, ConfigError};
+use crate::config_error::{check, ConfigError};
 use serde::{Deserialize, Serialize};
 
 /// Settings of [`super::StabilityNd`].
@@ -11,7 +11,7 @@ use serde::{Deserialize, Serialize};
 /// In a JSON config these are the `stability_nd` object, every field but `safety`: the
 /// safety is `stability.safety` ([`crate::controller::ControllerConfig::stability`]), one
 /// number for every dimension, so a JSON `stability_nd.safety` is an unknown field.
-/// [`crate::limits_nd::standard_limits`] builds the limit from both. The default safety
+/// [`crate::controller::standard_limits`] builds the limit from both. The default safety
 /// is the controller config's default (0.95), so a limit built by hand with
 /// `..StabilityNdConfig::default()` proposes what the standard limits propose.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -37,7 +37,7 @@
 //! a stricter test — and saves the second pass over the particles that the scale, known
 //! only after the first, would otherwise need.
 //!
-//! **Deferred checks** ([`crate::controller::deferral`]): while `dsm` stays far below the
+//! **Deferred checks** ([`crate::temporal::deferral`]): while `dsm` stays far below the
 //! tolerance the checks of the next trials are deferred (1, 2, 4, up to 8 trials). On a
 //! grid-decomposed run a trial that moves particles between processes is always checked,
 //! so that the history keeps following the committed order.
@@ -75,11 +75,12 @@ mod accept;
 mod passes;
 
 use super::temporal_sweep::{stamp, History, Pairing, LEFT_OUT, NONE};
-use crate::controller::deferral::{self, DeferredTrial};
-use crate::controller::{metric, TemporalErrorConfig, TEMPORAL_ERROR};
 use crate::dimension::{Dim, Dimension};
+use crate::limit::metric;
 use crate::limit::{Judgement, LimitError, Metrics, Proposal, RejectCause, StepLimit, Verdict};
 use crate::nd::ViewNd;
+use crate::temporal::deferral::{self, DeferredTrial};
+use crate::temporal::{TemporalErrorConfig, TEMPORAL_ERROR};
 use accept::Judged;
 
 /// Relative growth of a field scale over the previous step's below which the weights keep

@@ -3,8 +3,8 @@
 //! forms the rates, the field-scale maxima and the sums of the scaled errors.
 
 use super::stress_rates::{StressRates, StressRatesMut};
-use crate::controller::deferral::{Deferral, Scheduled};
 use crate::nd::{Tensor, Vector, ViewNd, ViewWeightsNd};
+use crate::temporal::deferral::{Deferral, Scheduled};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 

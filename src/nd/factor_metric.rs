@@ -21,7 +21,19 @@
 
 use super::factors::AxisFactors;
 use super::Vector;
-use crate::limits_nd::element_bound::from_metric;
+
+/// One particle's `λ_p` of the element bound ([`crate::limits_nd::element_bound`]) from its gradient metric `H_p`, given as its largest
+/// Gershgorin row sum `row_sum ≥ λmax(H_p)` and its trace, its `V_p/m_p` and its tangent
+/// moduli: `(V_p/m_p)·min(row_sum·max(Dλ_t + 2μ_t, 2μ_t), tr(H_p)·max(λ_t + 2μ_t, 2μ_t))`.
+/// What a stepper computes in its own pass to hand the bound over
+/// ([`crate::nd::SummaryNd::element_bound`]): for tensor-product weights `H_p` is diagonal,
+/// `H_aa = Σ_k s'_k²/s_k` over axis `a`'s weights; for MLS-MPM's gradients `H_p = (4/h²) I`.
+#[inline]
+pub fn from_metric<const D: usize>(row_sum: f64, trace: f64, per_mass: f64, l: f64, m: f64) -> f64 {
+    let c_vol = (D as f64 * l + 2.0 * m).max(2.0 * m);
+    let c_p = (l + 2.0 * m).max(2.0 * m);
+    per_mass * (row_sum * c_vol).min(trace * c_p)
+}
 
 /// `|s'|·h` below which a derivative at a factor of zero weight counts as round-off.
 const ROUND_OFF: f64 = 1e-9;

@@ -2,7 +2,6 @@
 //! estimators and the controller read. The d-dimensional counterpart of [`crate::View`].
 
 use super::{GridNd, Tensor, Vector, ViewWeightsNd};
-use crate::dimension::StateView;
 
 /// A read-only view of one state of a `D`-dimensional solver. Particle slices all have the
 /// number of particles as length, nodal slices `grid.n_nodes()`.
@@ -166,58 +165,5 @@ impl<const D: usize> ViewNd<'_, D> {
     /// S-wave speed of particle `p`, `c_s = √(μ_t/ρ)`.
     pub fn s_wave_speed(&self, p: usize) -> f64 {
         (self.lame_mu[p] / self.density[p]).sqrt()
-    }
-}
-
-impl<const D: usize> StateView for ViewNd<'_, D> {
-    fn time(&self) -> f64 {
-        self.t
-    }
-
-    fn step_index(&self) -> u64 {
-        self.step
-    }
-
-    fn particle_count(&self) -> usize {
-        self.x.len()
-    }
-
-    fn check_shape(&self) -> Result<usize, crate::ViewError> {
-        ViewNd::check_shape(self)
-    }
-
-    fn check_contents(&self) -> Result<(), crate::ViewError> {
-        ViewNd::check_contents(self)
-    }
-
-    fn first_nonfinite(&self) -> Option<(&'static str, usize, f64)> {
-        // The stepper's own check, when it made one.
-        if self.summary.is_some_and(|s| s.finite) {
-            return None;
-        }
-        fn scan<'b, I: Iterator<Item = &'b f64>>(p: usize, it: I) -> Option<(usize, f64)> {
-            it.copied().find(|v| !v.is_finite()).map(|v| (p, v))
-        }
-        for (p, x) in self.x.iter().enumerate() {
-            if let Some((p, v)) = scan(p, x.iter()) {
-                return Some(("x", p, v));
-            }
-        }
-        for (p, x) in self.v.iter().enumerate() {
-            if let Some((p, v)) = scan(p, x.iter()) {
-                return Some(("v", p, v));
-            }
-        }
-        for (p, x) in self.sigma.iter().enumerate() {
-            if let Some((p, v)) = scan(p, x.iter()) {
-                return Some(("sigma", p, v));
-            }
-        }
-        for (p, x) in self.f.iter().enumerate() {
-            if let Some((p, v)) = scan(p, x.iter()) {
-                return Some(("F", p, v));
-            }
-        }
-        None
     }
 }

@@ -1,6 +1,7 @@
 //! The error type of the stability module.
 
 use crate::limit::LimitError;
+pub(crate) use crate::view_check::all_finite;
 
 /// Why a stability quantity could not be computed. Bad input is reported, never panicked on.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
@@ -324,22 +325,6 @@ fn max(a: f64, b: f64) -> f64 {
     } else {
         b
     }
-}
-
-/// Whether every value is finite (no NaN, no ±∞): lane-wise sums of `0·x`, which are 0
-/// exactly when all values are finite (vectorised; see [`LANES`]).
-pub(crate) fn all_finite(values: &[f64]) -> bool {
-    let mut bad = [0.0_f64; LANES];
-    let mut chunks = values.chunks_exact(LANES);
-    for c in chunks.by_ref() {
-        for k in 0..LANES {
-            bad[k] += c[k] * 0.0;
-        }
-    }
-    for &x in chunks.remainder() {
-        bad[0] += x * 0.0;
-    }
-    bad.iter().all(|&b| b == 0.0)
 }
 
 /// The field-by-field checks, in the order that decides which error is reported.

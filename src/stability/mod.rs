@@ -79,7 +79,6 @@ mod power_pass;
 pub mod sound_speed;
 
 pub use certified::{CertifiedConfig, CertifiedEstimate, CertifiedTracker};
-pub(crate) use error::all_finite;
 pub use error::StabilityError;
 pub use full_map::{FullMap, FullMapConfig};
 pub use lambda_max::{

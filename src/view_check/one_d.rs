@@ -4,7 +4,7 @@
 use super::rows::{check_rows, Rows};
 use super::{check_counts, finite, ViewError};
 use crate::grid::Boundary;
-use crate::stepper::View;
+use crate::view::View;
 use crate::weights::Weights;
 
 /// The first non-finite value of the trial's `x`, `v`, `σ`, `F` (in that order), if any.
@@ -19,7 +19,7 @@ pub(crate) fn first_nonfinite(view: &View<'_>) -> Option<(&'static str, usize, f
     }
     if [view.x, view.v, view.sigma, view.f]
         .into_iter()
-        .all(crate::stability::all_finite)
+        .all(super::all_finite)
     {
         return None;
     }

@@ -3,10 +3,10 @@
 //! the trial — from a history of their own (the parent module's docs, "Memory").
 
 use super::{Estimate, TemporalErrorNd};
-use crate::controller::deferral::Deferral;
 use crate::limit::LimitError;
 use crate::limits_nd::temporal_sweep::{rates_into, stamp, History};
 use crate::nd::ViewNd;
+use crate::temporal::deferral::Deferral;
 
 /// The last judged trial: its start time and step, its estimate, and — only where
 /// particles changed process in it — its rates (else they are written into the history

@@ -38,7 +38,7 @@
 //! inheriting a guarantee about other data. The stamp is not serialized (a deserialized
 //! summary is never trusted).
 
-use crate::stepper::View;
+use super::View;
 use serde::{Deserialize, Serialize};
 
 /// Reductions over one state's particles taken by the stepper's pass (module docs).

@@ -1,16 +1,16 @@
 //! [`TemporalErrorConfig`]: the tolerances of the temporal error limit
-//! ([`super::TemporalError`], module docs of `temporal_error`) and its deferral settings.
+//! ([`crate::controller::TemporalError`], module docs of `temporal_error`) and its deferral settings.
 
-use super::config::{check, ConfigError};
 use super::deferral::DEFAULT_MAX_DEFERRED;
+use crate::config_error::{check, ConfigError};
 use serde::{Deserialize, Serialize};
 
-/// Tolerances of [`super::TemporalError`]. Units: `atol_v` is a velocity, `atol_sigma` a stress;
+/// Tolerances of [`crate::controller::TemporalError`]. Units: `atol_v` is a velocity, `atol_sigma` a stress;
 /// `rtol` and `atol_rel` are dimensionless.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct TemporalErrorConfig {
-    /// Whether [`super::Controller::with_default_limits`] installs the limit (default true).
+    /// Whether [`crate::controller::Controller::with_default_limits`] installs the limit (default true).
     pub enabled: bool,
     /// Relative tolerance on each particle's value (default 0.05).
     pub rtol: f64,

@@ -1,4 +1,4 @@
-//! Deferred temporal-error checks, shared by the 1D [`super::TemporalError`] and the
+//! Deferred temporal-error checks, shared by the 1D [`crate::controller::TemporalError`] and the
 //! 2D/3D [`crate::limits_nd::TemporalErrorNd`].
 //!
 //! At a stable step the temporal error is usually far below its tolerance — the paper (its
@@ -34,7 +34,8 @@
 //! last checked step (filters with step-ratio terms take that ratio across the deferred
 //! steps). `max_deferred: 0` checks every trial, as the paper's controller does.
 
-use super::{metric, TemporalErrorConfig};
+use super::TemporalErrorConfig;
+use crate::limit::metric;
 use crate::limit::{Judgement, Metrics, Verdict};
 use serde::{Deserialize, Serialize};
 
