@@ -97,6 +97,7 @@ pub mod dimension;
 pub mod estimators;
 pub mod fmt_num;
 pub mod grid;
+mod lanczos;
 pub mod limit;
 pub mod limits_nd;
 #[cfg(feature = "reference")]

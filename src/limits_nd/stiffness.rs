@@ -19,10 +19,10 @@ use crate::nd::ViewNd;
 
 mod blocked;
 mod krylov;
+use crate::lanczos::{self, dot, Settle};
 use crate::reduce::{Reduce, SingleProcess};
-use crate::stability::lambda_max::dot;
 use faer::Mat;
-use krylov::{ActiveSpace, Iteration};
+use krylov::{ActiveOperator, ActiveSpace};
 
 /// `M^{-1/2}` on the nodes: `1/√m_i` at active nodes, 0 elsewhere (inactive nodes drop out
 /// of the operator).
@@ -232,20 +232,7 @@ impl<'v, 'a, const D: usize> NodalSpace<'v, 'a, D> {
         if self.view.split.is_none() {
             return left.iter().map(|a| dot(a, b)).collect();
         }
-        let mut out: Vec<f64> = left
-            .iter()
-            .map(|a| {
-                let mut sum = 0.0;
-                for (k, (x, y)) in a.iter().zip(b).enumerate() {
-                    if counted(k) {
-                        sum += x * y;
-                    }
-                }
-                sum
-            })
-            .collect();
-        self.reduce.sum(&mut out);
-        out
+        lanczos::reduced_dots(left, b, counted, self.reduce)
     }
 
     /// `aᵀb` over the whole grid.
@@ -328,8 +315,10 @@ pub struct LanczosResult {
     pub applications: usize,
 }
 
-/// Lanczos with full reorthogonalisation for `λmax(A)`, from `start` (any non-zero vector;
-/// a previous Ritz vector makes it fast). Stops when the residual bound of the largest Ritz
+/// Lanczos with full reorthogonalisation for `λmax(A)` (the crate's Lanczos iteration,
+/// `src/lanczos.rs`, in the Euclidean inner product of the active components), from `start`
+/// (any non-zero vector; a previous Ritz vector makes it fast). Its value is a Ritz value, a
+/// lower bound on `λmax(A)` that rises to it as the Krylov space grows. Stops when the residual bound of the largest Ritz
 /// value is below `tol · λ`, or when the Ritz value changed by less than `tol · λ / 10` in two
 /// iterations running (it converges much faster than the vector when the top of the spectrum is a
 /// cluster, as on uniform layouts), or after `max_iter` products.
@@ -371,8 +360,9 @@ pub fn lanczos_on<const D: usize>(
     let n = start.len();
     let q = krylov::zero_inactive(view, start);
     let active = ActiveSpace::new(view, reduce);
-    let mut qc = active.gather(&q);
-    let norm = active.norm(&qc);
+    let qc = active.gather(&q);
+    let mut op = ActiveOperator::new(pool, view, &active, n);
+    let norm = lanczos::norm(&mut op, &qc, &mut Vec::new());
     if !(norm > 0.0 && norm.is_finite()) {
         return LanczosResult {
             lambda: 0.0,
@@ -381,14 +371,27 @@ pub fn lanczos_on<const D: usize>(
             applications: 0,
         };
     }
-    qc.iter_mut().for_each(|v| *v /= norm);
-    let it = Iteration::run(pool, view, &active, qc, n, tol, max_iter);
-    let (lambda, residual) = it.value();
+    let mut work = lanczos::Work::default();
+    work.start(qc.len(), &qc, None, norm);
+    // Settled: within `tol/10` in two evaluations running, from the third iteration on.
+    let mut rule = Settle::new(tol, 0.1 * tol, (2, 2), 1e-14, 0.0);
+    let full = lanczos::Orthogonalise::Full;
+    let Ok(top) = lanczos::run(
+        &mut op,
+        &mut work,
+        qc.len(),
+        max_iter.max(1),
+        full,
+        &mut rule,
+    ) else {
+        unreachable!("no metric, and this rule takes any value");
+    };
+    let vector = work.ritz_vector(&top.y, active.inner(), Vec::new(), qc.len());
     LanczosResult {
-        lambda,
-        residual,
-        vector: it.ritz_vector(&active, n),
-        applications: it.applications(),
+        lambda: top.theta,
+        residual: top.residual,
+        vector: active.scatter(&vector, n),
+        applications: top.applications,
     }
 }
 

@@ -6,7 +6,9 @@
 //! (`O(nnz)`) plus `O(n)` vector work: the vectors are re-orthogonalised locally (against the
 //! last two), not globally — a full re-orthogonalisation costs `O(k² n)`, which at `10⁵`
 //! particles and 60 iterations was 100 solver steps. Loss of orthogonality only duplicates
-//! converged Ritz values (Paige); the largest still converges to λmax from below.
+//! converged Ritz values (Paige); the largest still converges to λmax from below. The
+//! iteration is the crate's one Lanczos loop (`src/lanczos.rs`), run here with its local
+//! recurrence and the stopping rule below.
 //!
 //! **Stopping rule.** After `k` applications the largest Ritz pair `(θ_k, y)` of the
 //! tridiagonal `T_k` has the residual `r_k = ‖B x − θ_k x‖₂ = β_k |y_k|` (Euclidean norm,
@@ -44,8 +46,8 @@
 
 use super::error::StabilityError;
 use super::operator::Eq56Operator;
+pub(crate) use crate::lanczos::dot;
 use lanczos::lanczos;
-pub(crate) use lanczos::top_ritz;
 
 mod lanczos;
 
@@ -204,8 +206,7 @@ pub struct LambdaMaxTracker {
 /// clone starts empty.
 #[derive(Debug, Default)]
 struct Work {
-    basis: Vec<Vec<f64>>,
-    w: Vec<f64>,
+    lanczos: crate::lanczos::Work,
     nodes: Vec<f64>,
     /// A cold start of the last dimension seen, blended into warm starts (any vector with a
     /// component on every mode serves; regenerating it costs about one application).
@@ -434,11 +435,6 @@ pub(crate) fn checkerboard_with_noise(n: usize, parity: impl Fn(usize) -> u64) -
             sign + 0.2 * r
         })
         .collect()
-}
-
-/// `aᵀ b` (also the d-dimensional Lanczos iteration's, [`crate::limits_nd`]).
-pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
 impl Default for LambdaMaxTracker {

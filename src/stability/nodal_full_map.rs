@@ -39,7 +39,10 @@
 //! iteration returns no answer), so `B = I − Q_s/2` is symmetric positive
 //! definite and `A_s B` is self-adjoint in the `B` inner product: its eigenvalues are real
 //! and non-negative, and Lanczos in that inner product finds `λ*` from products with `A_s`
-//! and `Q_s` alone, each one pass over the particles' weights.
+//! and `Q_s` alone, each one pass over the particles' weights. Its Ritz values are Rayleigh
+//! quotients `⟨x, A_s B x⟩_B / ⟨x, x⟩_B` over a growing Krylov space, so they rise to `λ*`
+//! from below: the step `√(2/θ)` of a Ritz value `θ` is at or above `dt_c` until it
+//! converges (the tolerance is tight for that reason, [`NodalLanczos`]).
 //!
 //! With `Q = 0` (no coupling through the particle velocities) this is eq 56's `√(2/λmax)`;
 //! with `Q_s = I` (each particle on a node of its own, weight 1 there: the consistent mass
@@ -58,7 +61,7 @@
 //! elsewhere on the circle is not excluded in general; the dense map remains the
 //! reference on small layouts.
 
-use super::lambda_max::top_ritz;
+use crate::lanczos::{self, dot, Inner, Settle};
 
 mod one_d;
 pub use one_d::{critical_dt_nodal_1d, NodalPencil1d};
@@ -155,7 +158,7 @@ impl<'p> Active<'p> {
     }
 
     /// `y = A_s u` (`stiffness`) or `y = B u = u − Q_s u/2` on the active components.
-    fn apply(&mut self, stiffness: bool, u: &[f64], y: &mut [f64]) {
+    fn product(&mut self, stiffness: bool, u: &[f64], y: &mut [f64]) {
         for (&k, &x) in self.comps.iter().zip(u) {
             self.input[k] = x;
         }
@@ -169,6 +172,30 @@ impl<'p> Active<'p> {
                 false => x - 0.5 * self.output[k],
             };
         }
+    }
+}
+
+/// `A_s B` in the `B` inner product, `B = I − Q_s/2` (module docs).
+impl lanczos::Operator for Active<'_> {
+    const METRIC: bool = true;
+
+    fn inner(&self) -> Inner<'_> {
+        Inner::local()
+    }
+
+    /// `y = A_s (B x)`.
+    fn apply(&mut self, _x: &[f64], bx: &[f64], y: &mut [f64]) {
+        self.product(true, bx, y);
+    }
+
+    fn metric(&mut self, x: &[f64], y: &mut [f64]) {
+        self.product(false, x, y);
+    }
+
+    /// `xᵀBx ≥ xᵀx/2` when `0 ≤ Q ≤ M` (module docs); a negative or non-finite value means
+    /// the weights or nodal masses break it: no answer rather than a wrong one.
+    fn indefinite(&self, x: &[f64], xbx: f64) -> bool {
+        !xbx.is_finite() || xbx < 0.25 * dot(x, x)
     }
 }
 
@@ -198,13 +225,10 @@ fn start_vector(n: usize) -> Vec<f64> {
         .collect()
 }
 
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
-}
-
 /// The full map's critical step `√(2/λ*)` from Lanczos on `A_s B` in the `B` inner product
 /// (module docs), on the active components, with full reorthogonalisation (twice,
-/// classical Gram–Schmidt). `None` when no component is active or the operator is zero on
+/// modified Gram–Schmidt in the `B` inner product; the crate's Lanczos iteration,
+/// `src/lanczos.rs`). `None` when no component is active or the operator is zero on
 /// the start.
 pub fn nodal_critical_dt(
     pencil: &dyn NodalPencil,
@@ -237,70 +261,38 @@ pub fn nodal_critical_dt_from(
                 .for_each(|(q, x)| *q = x / w + 0.1 * *q / f);
         }
     }
-    let mut bq = vec![0.0; n];
-    active.apply(false, &q, &mut bq);
-    let norm = dot(&q, &bq).sqrt();
+    let mut bq = Vec::new();
+    let norm = lanczos::norm(&mut active, &q, &mut bq);
     if !(norm > 0.0 && norm.is_finite()) {
         return None;
     }
-    q.iter_mut().for_each(|x| *x /= norm);
-    bq.iter_mut().for_each(|x| *x /= norm);
-    let (mut basis, mut b_basis) = (vec![q], vec![bq]);
-    let (mut alpha, mut beta) = (Vec::<f64>::new(), Vec::<f64>::new());
-    let mut r = vec![0.0; n];
-    let mut br = vec![0.0; n];
+    let mut work = lanczos::Work::default();
+    work.start(n, &q, Some(&bq), norm);
     let max_iter = settings.max_iter.max(1).min(n);
-    let (mut previous, mut settled_runs) = (f64::NAN, 0);
-    for j in 0..max_iter {
-        // r = A_s B q_j; α_j = ⟨q_j, r⟩_B = (B q_j)·r.
-        active.apply(true, &b_basis[j], &mut r);
-        alpha.push(dot(&b_basis[j], &r));
-        for _ in 0..2 {
-            for (qk, bqk) in basis.iter().zip(&b_basis) {
-                let c = dot(bqk, &r);
-                r.iter_mut().zip(qk).for_each(|(r, q)| *r -= c * q);
-            }
-        }
-        active.apply(false, &r, &mut br);
-        // `rᵀBr ≥ rᵀr/2` when `0 ≤ Q ≤ M` (module docs); a negative or non-finite value
-        // means the weights or nodal masses break it: no answer rather than a wrong one.
-        let rbr = dot(&r, &br);
-        if !rbr.is_finite() || rbr < 0.25 * dot(&r, &r) {
-            return None;
-        }
-        let b = rbr.sqrt();
-        let products = j + 1;
-        // The Ritz value costs a dense eigenproblem of the iteration's size: every
-        // iteration for the first 32, then every fourth (and at the end).
-        let exhausted = b <= settings.tol * previous.abs();
-        if j >= 32 && j % 4 != 3 && products < max_iter && !exhausted {
-            beta.push(b);
-            basis.push(r.iter().map(|x| x / b).collect());
-            b_basis.push(br.iter().map(|x| x / b).collect());
-            continue;
-        }
-        let (theta, y) = top_ritz(&alpha, &beta);
-        let residual = b * y.last().copied().unwrap_or(0.0).abs();
-        settled_runs = match (theta - previous).abs() <= settings.settle * theta.abs() {
-            true => settled_runs + 1,
-            false => 0,
-        };
-        previous = theta;
-        let converged = residual <= settings.tol * theta.abs() || settled_runs >= 3;
-        // An exhausted Krylov space (`b` ≈ 0) holds an exact invariant subspace.
-        let exhausted = b <= settings.tol * theta.abs();
-        if converged || exhausted || products == max_iter {
-            return (theta > 0.0 && theta.is_finite()).then(|| NodalCritical {
-                lambda: theta,
-                dt: (2.0 / theta).sqrt(),
-                residual,
-                products,
-                converged: converged || exhausted,
-            });
-        }
-        beta.push(b);
-        basis.push(r.iter().map(|x| x / b).collect());
-        b_basis.push(br.iter().map(|x| x / b).collect());
-    }
-    None
+    // Settled: within `settle` in three evaluations running; exhausted: `β ≤ tol · θ`.
+    let mut rule = Settle::new(
+        settings.tol,
+        settings.settle,
+        (3, 0),
+        settings.tol,
+        f64::NAN,
+    )
+    .with_cadence(RITZ_DENSE, RITZ_EVERY);
+    let full = lanczos::Orthogonalise::Full;
+    let top = lanczos::run(&mut active, &mut work, n, max_iter, full, &mut rule).ok()?;
+    let theta = top.theta;
+    (theta > 0.0 && theta.is_finite()).then(|| NodalCritical {
+        lambda: theta,
+        dt: (2.0 / theta).sqrt(),
+        residual: top.residual,
+        products: top.applications,
+        converged: top.converged,
+    })
 }
+
+/// The Ritz value costs a dense eigenproblem of the iteration's size: it is evaluated at
+/// every iteration below this one, then at every [`RITZ_EVERY`]-th (and at the end).
+const RITZ_DENSE: usize = 32;
+
+/// See [`RITZ_DENSE`].
+const RITZ_EVERY: usize = 4;
