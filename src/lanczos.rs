@@ -14,9 +14,9 @@
 //!   product summed over the processes of a split run (a [`crate::reduce::Reduce`]);
 //! * the full map from the nodes ([`crate::stability::nodal_full_map`]): `A_s B` with
 //!   `B = I − Q_s/2` symmetric positive definite, self-adjoint in the `B` inner product
-//!   `⟨x, y⟩_B = (B x)ᵀ y` (a *metric*, [`Operator::METRIC`]).
+//!   `⟨x, y⟩_B = (B x)ᵀ y` (a *metric*, `Operator::METRIC`).
 //!
-//! An [`Operator`] gives the products and its [`Inner`] product: the Euclidean one over
+//! An `Operator` gives the products and its `Inner` product: the Euclidean one over
 //! this process's entries, completed by [`crate::reduce::Reduce::sum`] over the processes
 //! when the vectors are split (each process then holds the same scalars, takes the same
 //! decisions and returns the same value).
@@ -31,8 +31,8 @@
 //! ```
 //!
 //! and the tridiagonal `T_k` (diagonal `α`, off-diagonal `β`) has the top Ritz pair
-//! `(θ_k, y)`: `θ_k` is the largest eigenvalue of `T_k` ([`top_ritz`]), the Ritz vector
-//! `x = Σ_j y_j q_j` ([`Work::ritz_vector`]), its residual `‖Op x − θ_k x‖ = β_k |y_k|`.
+//! `(θ_k, y)`: `θ_k` is the largest eigenvalue of `T_k` (`top_ritz`), the Ritz vector
+//! `x = Σ_j y_j q_j` (`Work::ritz_vector`), its residual `‖Op x − θ_k x‖ = β_k |y_k|`.
 //!
 //! **From below.** `θ_k` is the largest Rayleigh quotient `⟨x, Op x⟩/⟨x, x⟩` over the
 //! Krylov space `span(q_0 … q_k)` (Courant–Fischer in the iteration's inner product, where
@@ -42,27 +42,27 @@
 //! with no component in `q_0` is invisible: the callers' starts (checkerboards with noise,
 //! warm starts blended with them) give every mode a component.
 //!
-//! **Orthogonality** ([`Orthogonalise`]): in floating point the `q_j` lose orthogonality
-//! as Ritz values converge. [`Orthogonalise::Local`] (the 1D tracker, `O(n)` per
+//! **Orthogonality** (`Orthogonalise`): in floating point the `q_j` lose orthogonality
+//! as Ritz values converge. `Orthogonalise::Local` (the 1D tracker, `O(n)` per
 //! iteration) runs the three-term recurrence and re-orthogonalises against `q_k`,
 //! `q_{k−1}` only: lost orthogonality then only duplicates converged Ritz values (Paige),
-//! and the largest still converges to `λmax` from below. [`Orthogonalise::Full`] (the
+//! and the largest still converges to `λmax` from below. `Orthogonalise::Full` (the
 //! d-dimensional limit and the full map, `O(k n)` per iteration) subtracts the projections
 //! on the whole basis, twice ("twice is enough"): modified Gram–Schmidt on one process,
 //! classical (one reduction per pass) when the inner product reduces over processes.
 //!
-//! **Stopping rule** ([`StopRule`]): after the Ritz pair of iteration `k`,
+//! **Stopping rule** (`StopRule`): after the Ritz pair of iteration `k`,
 //!
 //! * the residual bound `β_k |y_k| ≤ tol · θ_k`: some eigenvalue lies within it;
 //! * or the Ritz value has settled: it converges long before the residual on a clustered
 //!   top of the spectrum (uniform and jittered layouts), and the step needs the value only
-//!   — [`Monotone`] (one step of `θ_k − θ_{k−1} ≤ value_tol · θ_k`, the 1D tracker) or
-//!   [`Settle`] (`|θ_k − θ_{k−1}| ≤ settle · |θ_k|` in several evaluations running, the
+//!   — `Monotone` (one step of `θ_k − θ_{k−1} ≤ value_tol · θ_k`, the 1D tracker) or
+//!   `Settle` (`|θ_k − θ_{k−1}| ≤ settle · |θ_k|` in several evaluations running, the
 //!   d-dimensional limit and the full map);
 //! * or `β_k` ≈ 0: the Krylov space is invariant and `θ_k` an eigenvalue;
 //! * or the iteration cap.
 //!
-//! [`Settle`] can also evaluate the Ritz value on a cadence (every iteration, then every
+//! `Settle` can also evaluate the Ritz value on a cadence (every iteration, then every
 //! few), since each evaluation is a dense eigenproblem of the iteration's size.
 
 mod inner;

@@ -8,11 +8,14 @@
 //! ## The parts
 //!
 //! * [`stepper`] — the object-safe [`Stepper`] trait a solver implements: trial step,
-//!   accept, reject (bit-for-bit rollback), and a read-only [`View`] of particle fields,
+//!   accept, reject (bit-for-bit rollback), and a read-only [`View`] ([`view`]; in 2D/3D
+//!   [`ViewNd`]) of particle fields,
 //!   nodal fields, material tangent moduli and the weight matrices `S`, `D`
 //!   ([`view_weights`]: ready or computed on first use), and optionally the nodal stiffness
 //!   `K_N` of eq 56 ([`nodal_stiffness`]) accumulated by the solver's own pass.
-//! * [`limit`] — the object-safe [`StepLimit`] trait: propose a step, judge a trial.
+//! * [`limit`] — the object-safe [`StepLimit`] trait: propose a step, judge a trial;
+//!   [`config_error`] — the typed error of every setting.
+//! * [`dimension`] — the dimension as a type parameter (`Dim<1>`, `Dim<2>`, `Dim<3>`).
 //! * [`grid`], [`shape`], [`weights`] — the 1D background grid, GIMP and linear-hat
 //!   basis functions, and the `S`/`D` matrices in fixed-width particle-major storage.
 //! * [`mpm`] — the reference 1D update-stress-last solver (eqs 17–29).
@@ -27,8 +30,15 @@
 //! * [`view_check`] — what the controller checks of every view before a limit reads it
 //!   (array lengths, the grid, a finite state, weights forming a partition of unity with
 //!   complete gradients) and the typed [`ViewError`] naming what is wrong.
+//! * [`limits_nd`] — the 2D/3D limits; [`temporal`] — what the temporal-error limits of
+//!   every dimension share.
 //! * [`controller`] — the adaptive controller combining the limits
-//!   ([`controller::Controller::standard`] builds the paper's three plus a growth monitor).
+//!   ([`controller::Controller::standard`] builds the paper's three plus a growth monitor,
+//!   in any dimension).
+//!
+//! Every `λmax` (eq 56 in 1D and 2D/3D, the full map's critical step) comes from one
+//! Lanczos iteration over an operator trait whose inner product sums over the processes of
+//! a split run ([`lanczos`]: the maths and the stopping rules).
 //!
 //! ## In five lines
 //!
@@ -97,7 +107,7 @@ pub mod dimension;
 pub mod estimators;
 pub mod fmt_num;
 pub mod grid;
-mod lanczos;
+pub mod lanczos;
 pub mod limit;
 pub mod limits_nd;
 #[cfg(feature = "reference")]

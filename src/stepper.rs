@@ -22,7 +22,7 @@ use crate::dimension::{Dim, Dimension, ViewOf};
 use crate::fmt_num::Num;
 pub use crate::view::View;
 #[cfg(doc)]
-use crate::view_weights::ViewWeights;
+use crate::{pass_summary::PassSummary, view_weights::ViewWeights};
 
 /// Why a trial step failed. The committed state is untouched in every case.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]

@@ -12,7 +12,7 @@
 //! is similar to the symmetric positive semi-definite `A = M^{-1/2} K M^{-1/2}`, so its
 //! eigenvalues are real and `ρ(I − dt² M⁻¹K) ≤ 1 ⇔ dt² λmax ≤ 2`:
 //! `dt_eq56 = √(2/λmax)`. [`apply`] computes `A u` matrix-free in one pass over the
-//! particles' weights (the cost of about one particle → grid pass); [`lanczos`] finds
+//! particles' weights (the cost of about one particle → grid pass); [`lanczos()`] finds
 //! `λmax(A)` from a few such products; [`dense`] assembles `A` for small problems.
 
 use crate::nd::ViewNd;
@@ -331,7 +331,7 @@ pub fn lanczos<const D: usize>(
     lanczos_reduced(view, start, tol, max_iter, &SingleProcess)
 }
 
-/// [`lanczos`] for a run split over processes ([`crate::reduce`]): each product `A u` is
+/// [`lanczos()`] for a run split over processes ([`crate::reduce`]): each product `A u` is
 /// this process's particles' part, completed over the processes ([`NodalSpace`]: a sum of
 /// whole-grid vectors when the grid is not decomposed, the view's halo when it is, with
 /// dot products over owned nodes). Every scalar of the iteration is then the same on every

@@ -134,7 +134,7 @@ pub struct TemporalErrorNd<const D: usize> {
 
 impl<const D: usize> TemporalErrorNd<D> {
     /// A limit with the tolerances of `config` (the 1D limit's settings; `enabled` is for
-    /// [`super::standard_limits`]).
+    /// [`crate::controller::standard_limits`]).
     pub fn new(config: TemporalErrorConfig) -> Self {
         Self {
             config,
