@@ -210,7 +210,8 @@ where
     /// 100 bytes a particle in 3D and 64 in 2D for the reference solver; plus O(nodes) for
     /// the tracker's Ritz vector (`D·8` a node). The growth monitor and the sound-speed
     /// limit hold O(1). Passes over the particles allocate nothing per particle; a `λmax`
-    /// refresh holds its Lanczos basis (O(nodes)) while it runs.
+    /// refresh holds its Lanczos basis (O(nodes)) while it runs, and on layouts of at most
+    /// 2²⁰ weight-row entries the formed rows its products read (O(particles)).
     pub fn memory_bytes(&self) -> usize {
         self.limits.iter().map(|l| l.memory_bytes()).sum::<usize>()
             + self.state.filter.history.capacity() * std::mem::size_of::<(f64, f64)>()

@@ -105,7 +105,11 @@ pub const STABILITY: &str = "stability";
 /// in 2D; on a decomposed grid for every particle of the run). Per node (O(nodes)): the Ritz vector,
 /// `D·8` bytes; during a refresh also the Lanczos basis, `D·8` bytes per active node and
 /// iteration, released after it. Products with `K` form each particle's weight row and
-/// moduli as they go. [`StepLimit::memory_bytes`] sums what is held between calls.
+/// moduli as they go; within one refresh the first product keeps them for the others
+/// where the weights are formed and the rows have at most 2²⁰ entries (`4 + 8·D` bytes
+/// per entry at an active node and 20 per particle, released with the basis; the
+/// products' bits are the same, [`super::stiffness::lanczos_on`]).
+/// [`StepLimit::memory_bytes`] sums what is held between calls.
 #[derive(Clone, Debug)]
 pub struct StabilityNd<const D: usize> {
     config: StabilityNdConfig,

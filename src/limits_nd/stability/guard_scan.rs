@@ -90,6 +90,9 @@ pub(super) fn scan<const D: usize>(
     range: std::ops::Range<usize>,
     check_motion: bool,
 ) -> GuardScan {
+    if !check_motion && rows.ids.is_none() {
+        return scan_moduli(rows, refs, range);
+    }
     let mut found = GuardScan::default();
     for p in range {
         let key = rows.ids.map_or(p, |ids| ids[p] as usize);
@@ -102,18 +105,7 @@ pub(super) fn scan<const D: usize>(
                 }
             }
         }
-        let vol = crate::nd::det(&rows.f[p]) * rows.volume0[p];
-        let (bulk, shear) = moduli_of::<D>(vol, rows.lame_lambda[p], rows.lame_mu[p]);
-        let (bulk_ref, shear_ref) = refs.moduli[key];
-        let r_bulk = bulk / bulk_ref;
-        let r_shear = if shear_ref > 0.0 {
-            shear / shear_ref
-        } else if shear > 0.0 {
-            f64::INFINITY
-        } else {
-            0.0
-        };
-        let r = r_bulk.max(r_shear);
+        let r = growth_of(rows, refs, p, key);
         // NaN (a non-finite modulus) forces a refresh.
         if r.is_nan() || r > refs.growth_limit {
             found.stale = true;
@@ -122,4 +114,49 @@ pub(super) fn scan<const D: usize>(
         found.growth = found.growth.max(r);
     }
     found
+}
+
+/// [`scan`] without the positions on an undivided grid: every particle read, without
+/// the early exit, so that the loop has no branch on the values. The findings are
+/// [`scan`]'s: the same `stale`, and where not stale the same `growth` (the maximum of
+/// the same ratios; [`f64::max`] returns one of its arguments, in any order).
+fn scan_moduli<const D: usize>(
+    rows: &GuardRows<'_, D>,
+    refs: &GuardRefs<'_, D>,
+    range: std::ops::Range<usize>,
+) -> GuardScan {
+    let (mut stale, mut growth) = (false, 1.0f64);
+    for p in range {
+        let r = growth_of(rows, refs, p, p);
+        stale |= r.is_nan() | (r > refs.growth_limit);
+        growth = growth.max(r);
+    }
+    GuardScan {
+        stale,
+        moved: false,
+        growth,
+    }
+}
+
+/// Particle `p`'s growth of the moduli since the analysed state (reference `key`):
+/// `max(bulk/bulk_ref, shear/shear_ref)`, NaN where a modulus is not finite.
+#[inline(always)]
+fn growth_of<const D: usize>(
+    rows: &GuardRows<'_, D>,
+    refs: &GuardRefs<'_, D>,
+    p: usize,
+    key: usize,
+) -> f64 {
+    let vol = crate::nd::det(&rows.f[p]) * rows.volume0[p];
+    let (bulk, shear) = moduli_of::<D>(vol, rows.lame_lambda[p], rows.lame_mu[p]);
+    let (bulk_ref, shear_ref) = refs.moduli[key];
+    let r_bulk = bulk / bulk_ref;
+    let r_shear = if shear_ref > 0.0 {
+        shear / shear_ref
+    } else if shear > 0.0 {
+        f64::INFINITY
+    } else {
+        0.0
+    };
+    r_bulk.max(r_shear)
 }

@@ -33,7 +33,7 @@ pub(super) fn is_blocked(particles: usize, active: usize) -> bool {
 /// process-split part is not shared between threads).
 #[derive(Clone, Copy)]
 pub(super) struct ProductFields<'a, const D: usize> {
-    weights: ViewWeightsNd<'a, D>,
+    pub(super) weights: ViewWeightsNd<'a, D>,
     f: &'a [Tensor<D>],
     volume0: &'a [f64],
     lame_lambda: &'a [f64],
@@ -157,35 +157,58 @@ pub(super) fn add_range<const D: usize>(
     slot: Option<&[u32]>,
 ) {
     for p in range {
-        let vol = det(&view.f[p]) * view.volume0[p];
-        let (vol_lambda, vol_mu) = (vol * view.lame_lambda[p], vol * view.lame_mu[p]);
+        let moduli = view.moduli(p);
         view.weights.with_row(p, |nodes, _, grads| {
-            let mut l = Tensor::<D>::zeros();
-            for (&i, g) in nodes.iter().zip(grads) {
-                let i = i as usize;
-                let s = inv_sqrt_m[i];
-                if s == 0.0 {
-                    continue;
-                }
-                let ui = Vector::<D>::from_fn(|a, _| u[i * D + a] * s);
-                l += ui * g.transpose();
-            }
-            let eps = (l + l.transpose()) * 0.5;
-            let stress =
-                Tensor::<D>::identity() * (vol_lambda * eps.trace()) + eps * (2.0 * vol_mu);
-            for (&i, g) in nodes.iter().zip(grads) {
-                let i = i as usize;
-                let s = inv_sqrt_m[i];
-                if s == 0.0 {
-                    continue;
-                }
-                let f = stress * g;
-                let at = slot.map_or(i, |slot| slot[i] as usize);
-                for a in 0..D {
-                    y[at * D + a] += f[a] * s;
-                }
-            }
+            add_particle(moduli, nodes, grads, inv_sqrt_m, u, y, slot);
         });
+    }
+}
+
+impl<const D: usize> ProductFields<'_, D> {
+    /// Particle `p`'s `(V_p λ_t, V_p μ_t)`, `V_p = det(F_p) V⁰_p`.
+    #[inline(always)]
+    pub(super) fn moduli(&self, p: usize) -> (f64, f64) {
+        let vol = det(&self.f[p]) * self.volume0[p];
+        (vol * self.lame_lambda[p], vol * self.lame_mu[p])
+    }
+}
+
+/// One particle's part of `A u` added into `y` ([`add_range`]): its moduli
+/// `(V_p λ_t, V_p μ_t)` and its weight row's node indices and gradients. Entries at nodes
+/// whose `M^{-1/2}` is zero (inactive) add nothing.
+#[inline(always)]
+pub(super) fn add_particle<const D: usize>(
+    (vol_lambda, vol_mu): (f64, f64),
+    nodes: &[u32],
+    grads: &[Vector<D>],
+    inv_sqrt_m: &[f64],
+    u: &[f64],
+    y: &mut [f64],
+    slot: Option<&[u32]>,
+) {
+    let mut l = Tensor::<D>::zeros();
+    for (&i, g) in nodes.iter().zip(grads) {
+        let i = i as usize;
+        let s = inv_sqrt_m[i];
+        if s == 0.0 {
+            continue;
+        }
+        let ui = Vector::<D>::from_fn(|a, _| u[i * D + a] * s);
+        l += ui * g.transpose();
+    }
+    let eps = (l + l.transpose()) * 0.5;
+    let stress = Tensor::<D>::identity() * (vol_lambda * eps.trace()) + eps * (2.0 * vol_mu);
+    for (&i, g) in nodes.iter().zip(grads) {
+        let i = i as usize;
+        let s = inv_sqrt_m[i];
+        if s == 0.0 {
+            continue;
+        }
+        let f = stress * g;
+        let at = slot.map_or(i, |slot| slot[i] as usize);
+        for a in 0..D {
+            y[at * D + a] += f[a] * s;
+        }
     }
 }
 

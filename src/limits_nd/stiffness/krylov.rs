@@ -2,6 +2,7 @@
 //! (`src/lanczos.rs`): the active components of the nodal vectors and their sums
 //! ([`ActiveSpace`]), and the products `A u` on them ([`ActiveOperator`]).
 
+use super::rows::FormedRows;
 use super::{apply_planned, blocked, inverse_sqrt_mass, NodalSpace};
 use crate::lanczos::{self, Inner};
 use crate::nd::ViewNd;
@@ -85,6 +86,8 @@ pub(super) struct ActiveOperator<'s, 'v, 'a, const D: usize> {
     inv_sqrt_m: Vec<f64>,
     /// The blocked products' plan (slots, range vectors), formed once for the run.
     plan: Option<blocked::BlockedProduct>,
+    /// Without a plan, the rows the first product forms, kept for the others.
+    rows: Option<FormedRows<D>>,
     qf: Vec<f64>,
     wf: Vec<f64>,
 }
@@ -97,12 +100,16 @@ impl<'s, 'v, 'a, const D: usize> ActiveOperator<'s, 'v, 'a, D> {
         active: &'s ActiveSpace<'v, 'a, D>,
         n: usize,
     ) -> Self {
+        let plan = pool.and_then(|_| blocked::BlockedProduct::plan(view));
+        // Otherwise the rows the first product forms, kept for the others (`super::rows`).
+        let rows = plan.is_none().then(|| FormedRows::for_view(view)).flatten();
         Self {
             pool,
             view,
             active,
             inv_sqrt_m: inverse_sqrt_mass(view),
-            plan: pool.and_then(|_| blocked::BlockedProduct::plan(view)),
+            plan,
+            rows,
             qf: vec![0.0; n],
             wf: vec![0.0; n],
         }
@@ -119,8 +126,14 @@ impl<const D: usize> lanczos::Operator for ActiveOperator<'_, '_, '_, D> {
         for (&c, &v) in comps.iter().zip(x) {
             self.qf[c] = v;
         }
-        let blocked = self.pool.zip(self.plan.as_mut());
-        apply_planned(blocked, self.view, &self.inv_sqrt_m, &self.qf, &mut self.wf);
+        match self.rows.as_mut() {
+            Some(rows) if rows.is_kept() => rows.add(&self.inv_sqrt_m, &self.qf, &mut self.wf),
+            Some(rows) => rows.record_and_add(self.view, &self.inv_sqrt_m, &self.qf, &mut self.wf),
+            None => {
+                let blocked = self.pool.zip(self.plan.as_mut());
+                apply_planned(blocked, self.view, &self.inv_sqrt_m, &self.qf, &mut self.wf);
+            }
+        }
         self.active.space.complete(&mut self.wf);
         for (y, &c) in y.iter_mut().zip(comps) {
             *y = self.wf[c];
