@@ -3,8 +3,10 @@
 //!
 //! # The operators
 //!
-//! Every critical step of the crate is `√(2/λ)` (or the full map's `√(2/λ*)`) of the
-//! largest eigenvalue of a symmetric positive semi-definite operator, found here:
+//! The stability limits' critical steps are `√(2/λ)` (or the full map's `√(2/λ*)`) of the
+//! largest eigenvalue of a symmetric positive semi-definite operator. Every Lanczos
+//! estimate of it runs this iteration (the 1D tracker also serves power-pass values
+//! certified by an `LDLᵀ` inertia test, and the verification tools have dense paths):
 //!
 //! * the 1D tracker ([`crate::stability::lambda_max`]): eq 56's
 //!   `B = diag(√(E V)) Dᵀ M D diag(√(E V))` on the particles (or its nodal form `C`), in

@@ -36,9 +36,11 @@
 //!   ([`controller::Controller::standard`] builds the paper's three plus a growth monitor,
 //!   in any dimension).
 //!
-//! Every `λmax` (eq 56 in 1D and 2D/3D, the full map's critical step) comes from one
-//! Lanczos iteration over an operator trait whose inner product sums over the processes of
-//! a split run ([`lanczos`]: the maths and the stopping rules).
+//! Every Lanczos estimate of a largest eigenvalue (eq 56's `λmax` in 1D and 2D/3D, the
+//! full map's critical step) runs one iteration over an operator trait whose inner product
+//! sums over the processes of a split run ([`lanczos`]: the maths and the stopping rules);
+//! the 1D tracker's served values, the dense verification paths and the element bound
+//! are computed otherwise.
 //!
 //! ## In five lines
 //!

@@ -2,8 +2,9 @@
 """Checks that the controller library's top-level modules import each other without a circle.
 
 Reads every `.rs` file under `src/`, takes the `crate::<module>` paths it names outside
-comments and outside its unit tests (from its first `#[cfg(test)]` or
-`#[cfg(all(test, …))]` on), and builds the graph
+comments and unit-test modules (`#[cfg(test)]` or `#[cfg(all(test, …))]` before `mod`),
+with nested `crate::{…}` groups and the crate root's re-exports (`crate::Stepper` is
+`stepper`'s) resolved, and builds the graph
 "module A names module B" over the crate's top-level modules. The test bench (the
 `reference` feature's reference solvers, scenarios and verification tools) builds on the
 library and is left out: its files are listed in TEST_BENCH. Prints the graph's strongly
@@ -39,6 +40,7 @@ def top_modules():
 
 def edges(modules):
     graph = {}
+    root_items = crate_root_items()
     for folder, _, files in os.walk(SRC):
         for name in files:
             if not name.endswith(".rs"):
@@ -50,15 +52,70 @@ def edges(modules):
             if module not in modules:
                 continue
             text = open(os.path.join(folder, name), encoding="utf-8").read()
-            cuts = [i for i in (text.find("#[cfg(test)]"), text.find("#[cfg(all(test")) if i >= 0]
-            if cuts:
-                text = text[: min(cuts)]
             text = re.sub(r"//.*", "", text)
-            named = set(re.findall(r"crate::([a-z_0-9]+)", text))
-            for group in re.findall(r"crate::\{([^}]*)\}", text):
-                named |= set(re.findall(r"(?:^|,)\s*([a-z_0-9]+)", group))
+            text = without_unit_tests(text)
+            named = set()
+            for path in re.findall(r"crate::([A-Za-z_0-9]+)", text):
+                named.add(root_items.get(path, path))
+            for group in brace_groups(text):
+                for head in top_level_heads(group):
+                    named.add(root_items.get(head, head))
             graph.setdefault(module, set()).update(named & modules - {module})
     return graph
+
+
+# A unit-test module: `#[cfg(test)]` or `#[cfg(all(test, …))]` before `mod NAME {`.
+TEST_MODULE = re.compile(r"#\[cfg\((?:test|all\(test[^\]]*)\)\]\s*mod\s+\w+\s*\{")
+# A unit-test file declared from here: `#[cfg(test)] mod NAME;` (its own file is read apart).
+TEST_FILE = re.compile(r"#\[cfg\((?:test|all\(test[^\]]*)\)\]\s*mod\s+\w+\s*;")
+
+
+def without_unit_tests(text):
+    """`text` without its inline unit-test modules (their braces matched) and test-file lines."""
+    text = TEST_FILE.sub("", text)
+    while True:
+        match = TEST_MODULE.search(text)
+        if not match:
+            return text
+        depth, end = 1, match.end()
+        while end < len(text) and depth:
+            depth += {"{": 1, "}": -1}.get(text[end], 0)
+            end += 1
+        text = text[: match.start()] + text[end:]
+
+
+def brace_groups(text):
+    """The contents of every `crate::{…}`, nested braces included."""
+    for match in re.finditer(r"crate::\{", text):
+        depth, end = 1, match.end()
+        while end < len(text) and depth:
+            depth += {"{": 1, "}": -1}.get(text[end], 0)
+            end += 1
+        yield text[match.end() : end - 1]
+
+
+def top_level_heads(group):
+    """The first path segment of each comma-separated item at the group's top level."""
+    depth, item, items = 0, "", []
+    for ch in group:
+        if ch == "," and depth == 0:
+            items.append(item)
+            item = ""
+            continue
+        depth += {"{": 1, "}": -1}.get(ch, 0)
+        item += ch
+    items.append(item)
+    return [m.group(1) for m in (re.match(r"\s*([A-Za-z_0-9]+)", i) for i in items) if m]
+
+
+def crate_root_items():
+    """The names `lib.rs` re-exports (`pub use module::{A, B}`), mapped to their module."""
+    text = re.sub(r"//.*", "", open(os.path.join(SRC, "lib.rs"), encoding="utf-8").read())
+    items = {}
+    for module, rest in re.findall(r"pub use ([a-z_0-9]+)::(\{[^;]*\}|[A-Za-z_0-9]+);", text):
+        for name in re.findall(r"[A-Za-z_0-9]+", rest):
+            items.setdefault(name, module)
+    return items
 
 
 def circles(graph):

@@ -18,14 +18,16 @@ pub fn controller_for<const D: usize>(
 where
     Dim<D>: Dimension + StandardLimits<D>,
 {
-    match (&config.gravity, &scenario.gravity) {
-        (Some(set), Some(g)) if set != g => {
+    // The solver's body force: the scenario's gravity, zero when it has none.
+    let applied = scenario.gravity.clone().unwrap_or_else(|| vec![0.0; D]);
+    match &config.gravity {
+        Some(set) if *set != applied => {
             return Err(format!(
-                "controller.gravity = {set:?} contradicts the scenario's gravity = {g:?}"
+                "controller.gravity = {set:?} contradicts the scenario's gravity = {applied:?}"
             ))
         }
-        (None, g) => config.gravity = g.clone(),
-        _ => {}
+        Some(_) => {}
+        None => config.gravity = scenario.gravity.clone(),
     }
     let mut controller = Controller::<D>::standard(config).map_err(|e| e.to_string())?;
     if let Some(r) = reduce {

@@ -20,6 +20,8 @@ use crate::nd::ViewNd;
 mod blocked;
 mod krylov;
 mod rows;
+#[cfg(all(test, feature = "reference"))]
+mod test_layout;
 use crate::lanczos::{self, dot, Settle};
 use crate::reduce::{Reduce, SingleProcess};
 use faer::Mat;

@@ -216,26 +216,13 @@ pub(super) fn add_particle<const D: usize>(
 #[cfg(all(test, feature = "reference"))]
 mod tests {
     use super::super::{apply_scaled, apply_scaled_on, inverse_sqrt_mass};
-    use crate::nd::{GridNd, MaterialNd, ParticlesNd, ShapeNd, SolverNd, Vector};
-    use crate::{Boundary, Stepper};
+    use crate::Stepper;
 
     /// A blocked product is the same bit for bit on 1, 2 and 3 threads and within
     /// round-off of the one-range product, on a walled, sheared GIMP layout.
     #[test]
     fn a_blocked_product_is_the_same_on_any_number_of_threads() {
-        let grid = GridNd::<2>::new([Boundary::Fixed; 2], [70, 70], [1.0, 1.0]);
-        let material = MaterialNd::NeoHookean {
-            youngs_modulus: 1e4,
-            poisson_ratio: 0.3,
-        };
-        let mut particles = ParticlesNd::uniform(&grid, [2, 2], 1000.0, material);
-        for p in 0..particles.len() {
-            let x = particles.x[p];
-            particles.v[p][0] = 0.3 * (x[1] - 0.5);
-        }
-        let mut s = SolverNd::new(grid, ShapeNd::Gimp, particles, Vector::<2>::zeros())
-            .expect("a valid set-up");
-        s.try_step(1e-4).and_then(|_| s.accept()).expect("a step");
+        let s = super::super::test_layout::sheared_block(70);
         let view = s.view();
         assert!(super::BlockedProduct::plan(&view).is_some());
         let inv = inverse_sqrt_mass(&view);

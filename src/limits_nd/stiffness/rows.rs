@@ -105,26 +105,13 @@ impl<const D: usize> FormedRows<D> {
 mod tests {
     use super::super::{apply_scaled, inverse_sqrt_mass};
     use super::FormedRows;
-    use crate::nd::{GridNd, MaterialNd, ParticlesNd, ShapeNd, SolverNd, Vector};
-    use crate::{Boundary, Stepper};
+    use crate::Stepper;
 
     /// Products from the kept rows are [`apply_scaled`]'s bit for bit, the first (which
     /// keeps them) and the later ones, on a walled, sheared GIMP layout.
     #[test]
     fn kept_rows_give_the_same_bits() {
-        let grid = GridNd::<2>::new([Boundary::Fixed; 2], [12, 12], [1.0, 1.0]);
-        let material = MaterialNd::NeoHookean {
-            youngs_modulus: 1e4,
-            poisson_ratio: 0.3,
-        };
-        let mut particles = ParticlesNd::uniform(&grid, [2, 2], 1000.0, material);
-        for p in 0..particles.len() {
-            let x = particles.x[p];
-            particles.v[p][0] = 0.3 * (x[1] - 0.5);
-        }
-        let mut s = SolverNd::new(grid, ShapeNd::Gimp, particles, Vector::<2>::zeros())
-            .expect("a valid set-up");
-        s.try_step(1e-4).and_then(|_| s.accept()).expect("a step");
+        let s = super::super::test_layout::sheared_block(12);
         let view = s.view();
         let inv = inverse_sqrt_mass(&view);
         let mut rows = FormedRows::for_view(&view).expect("formed weights, a small layout");
