@@ -6,7 +6,7 @@
 //! moving bodies the controller's cost comes in bursts (a λmax refresh whenever a particle
 //! has moved half a cell), so here one sample is a whole run:
 //!
-//! * `rule` — α = 0.4's steps to `t_end` (`SoundSpeedNd::unit_step` on the committed state,
+//! * `rule` — α = 0.4's steps to `t_end` (`SoundSpeed::unit_step` on the committed state,
 //!   `try_step(0.4·unit)`, `accept`);
 //! * `controlled` — `Controller::run_until(t_end)` with the scenario's controller config and
 //!   the standard limits.
@@ -19,9 +19,9 @@
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use mpm_dt::controller::standard_limits;
 use mpm_dt::controller::Controller;
-use mpm_dt::limits_nd::SoundSpeedNd;
 use mpm_dt::nd::scenario::ScenarioNd;
 use mpm_dt::nd::{SolverNd, Vector};
+use mpm_dt::sound_speed::SoundSpeed;
 use mpm_dt::{Dim, Dimension, Stepper, ViewNd};
 use std::hint::black_box;
 
@@ -32,7 +32,7 @@ where
 {
     let mut steps = 0;
     while s.time() < t_end {
-        let unit = SoundSpeedNd::unit_step(&s.view()).unwrap_or_else(|e| panic!("{e}"));
+        let unit = SoundSpeed::unit_step(&s.view()).unwrap_or_else(|e| panic!("{e}"));
         let dt = (0.4 * unit).min(t_end - s.time());
         s.try_step(black_box(dt)).unwrap_or_else(|e| panic!("{e}"));
         s.accept().unwrap_or_else(|e| panic!("{e}"));

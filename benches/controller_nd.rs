@@ -6,7 +6,7 @@
 //! Periodic box, 2 particles per cell per axis, a small plane wave, about 10⁵ particles
 //! (2D GIMP; 3D GIMP and quadratic B-splines). Per layout:
 //!
-//! * `rule` — the fixed rule's step: `SoundSpeedNd::unit_step` on the committed state, then
+//! * `rule` — the fixed rule's step: `SoundSpeed::unit_step` on the committed state, then
 //!   `try_step(0.4·unit)` and `accept` (what `simulate --compare` times for α = 0.4);
 //! * `controlled` — `Controller::step` with `standard_limits` and the default settings (the
 //!   speed-of-sound cap, the tracked eq 56 limit, the temporal error, the growth monitor),
@@ -21,8 +21,8 @@ use common::solver;
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use mpm_dt::controller::standard_limits;
 use mpm_dt::controller::{Controller, ControllerConfig};
-use mpm_dt::limits_nd::SoundSpeedNd;
 use mpm_dt::nd::{ShapeNd, SolverNd, Vector};
+use mpm_dt::sound_speed::SoundSpeed;
 use mpm_dt::{Dim, Dimension, Stepper, ViewNd};
 use std::hint::black_box;
 
@@ -62,7 +62,7 @@ where
         let mut s = solver::<D>(cells, shape);
         group.bench_function(id("rule"), |b| {
             b.iter(|| {
-                let unit = match SoundSpeedNd::unit_step(&s.view()) {
+                let unit = match SoundSpeed::unit_step(&s.view()) {
                     Ok(u) => u,
                     Err(e) => panic!("sound speed failed: {e}"),
                 };

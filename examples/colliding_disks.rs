@@ -27,9 +27,9 @@ mod controller_nd;
 mod repeats;
 
 use mpm_dt::controller::Outcome;
-use mpm_dt::limits_nd::SoundSpeedNd;
 use mpm_dt::nd::scenario::ScenarioNd;
 use mpm_dt::nd::SolverNd;
+use mpm_dt::sound_speed::SoundSpeed;
 use mpm_dt::{Dim, Dimension, Stepper, ViewNd};
 use plotters::prelude::*;
 use serde_json::json;
@@ -109,7 +109,7 @@ where
     while s.time() < t_end * (1.0 - 1e-14) {
         // Timed: the rule and the step, as in `controlled`.
         let start = Instant::now();
-        let step = SoundSpeedNd::unit_step(&s.view())
+        let step = SoundSpeed::unit_step(&s.view())
             .map_err(|e| e.to_string())
             .and_then(|u| {
                 let dt = (alpha * u).min(t_end - s.time());

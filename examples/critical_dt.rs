@@ -261,7 +261,7 @@ fn run(args: &Args) -> Result<Value, Box<dyn std::error::Error>> {
         None => mpm_dt::Proposal::no_opinion(),
     };
     let p_sound = match config.sound_speed {
-        Some(c) => SoundSpeed::new(c)?.propose(&view)?,
+        Some(c) => StepLimit::<1>::propose(&mut SoundSpeed::new(c)?, &view)?,
         None => mpm_dt::Proposal::no_opinion(),
     };
     let dt_controller = p_stab.dt.min(p_sound.dt);

@@ -69,7 +69,7 @@
 //! | part | 1D | 2D and 3D |
 //! |---|---|---|
 //! | state a limit reads | [`View`] (`S`, `D` matrices, [`weights`]) | [`ViewNd`] ([`nd::WeightsNd`], optional [`nd::SummaryNd`] from the stepper's pass) |
-//! | sound speed (eq 49) | [`stability::SoundSpeed`] | [`limits_nd::SoundSpeedNd`] |
+//! | sound speed (eq 49) | [`sound_speed::SoundSpeed`], one limit: its 1D kernel in [`stability::sound_speed`] | the same limit: its 2D/3D kernel in [`limits_nd::sound_speed`] |
 //! | stability (eq 56) | [`stability::Stability`]: certified tracker, eq 58 | [`limits_nd::StabilityNd`]: Lanczos with a motion guard, the element bound |
 //! | temporal error (eqs 20–30) | [`controller::TemporalError`] | [`limits_nd::TemporalErrorNd`] |
 //! | growth monitor | [`controller::GrowthMonitor`] (checkerboard share) | [`limits_nd::GrowthNd`] (energy) |
@@ -125,6 +125,7 @@ pub mod reduce;
 #[cfg(feature = "reference")]
 pub mod scenario;
 pub mod shape;
+pub mod sound_speed;
 pub mod stability;
 mod stencil;
 pub mod stepper;

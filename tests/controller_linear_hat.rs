@@ -64,7 +64,10 @@ fn controller_survives_where_sound_speed_stepping_blows_up() {
     let mut sound = SoundSpeed::new(SoundSpeedConfig { alpha: 0.4 }).unwrap();
     let mut failed = false;
     while s.time() < T_END && !failed {
-        let dt = sound.propose(&s.view()).unwrap().dt.min(T_END - s.time());
+        let dt = StepLimit::<1>::propose(&mut sound, &s.view())
+            .unwrap()
+            .dt
+            .min(T_END - s.time());
         failed = s.try_step(dt).is_err() || s.accept().is_err() || blew_up(&s, e0);
     }
     assert!(

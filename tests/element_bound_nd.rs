@@ -7,10 +7,12 @@
 use mpm_dt::controller::standard_limits;
 use mpm_dt::controller::{Controller, ControllerConfig, Outcome};
 use mpm_dt::limits_nd::element_bound::element_bound;
+use mpm_dt::limits_nd::sound_speed::pass_unit_step;
 use mpm_dt::limits_nd::stiffness::dense_lambda_max;
-use mpm_dt::limits_nd::{SoundSpeedNd, StabilityNd, StabilityNdConfig, STABILITY};
+use mpm_dt::limits_nd::{StabilityNd, StabilityNdConfig, STABILITY};
 use mpm_dt::nd::{GridNd, MaterialNd, ParticlesNd, ShapeNd, SolverNd, Vector};
 use mpm_dt::reduce::SingleProcess;
+use mpm_dt::sound_speed::SoundSpeed;
 use mpm_dt::{Boundary, Dim, Dimension, Stepper, ViewNd};
 use proptest::prelude::*;
 
@@ -71,7 +73,7 @@ where
     let dense = dense_lambda_max(&view).expect("dense eigenvalues");
     same_sound_step(&view);
     // After a step the solver hands over what its own step's pass accumulated.
-    let dt = 0.1 * SoundSpeedNd::unit_step(&view).expect("a finite state");
+    let dt = 0.1 * SoundSpeed::unit_step(&view).expect("a finite state");
     s.try_step(dt)
         .and_then(|_| s.accept())
         .expect("a small step");
@@ -85,7 +87,7 @@ fn same_sound_step<const D: usize>(view: &ViewNd<'_, D>) {
         .summary
         .and_then(|x| x.sound_unit_step)
         .expect("supplied");
-    let library = SoundSpeedNd::unit_step(view).expect("a finite state");
+    let library = pass_unit_step(view).expect("a finite state");
     assert_eq!(
         supplied.to_bits(),
         library.to_bits(),

@@ -7,9 +7,9 @@
 
 use mpm_dt::controller::standard_limits;
 use mpm_dt::controller::Controller;
-use mpm_dt::limits_nd::SoundSpeedNd;
 use mpm_dt::nd::scenario::ScenarioNd;
 use mpm_dt::nd::{SolverNd, Vector};
+use mpm_dt::sound_speed::SoundSpeed;
 use mpm_dt::Stepper;
 
 fn scenario() -> ScenarioNd {
@@ -25,7 +25,7 @@ fn scenario() -> ScenarioNd {
 fn fixed_rule(mut s: SolverNd<2>, alpha: f64, t_end: f64) -> Option<f64> {
     let e0 = s.total_energy();
     while s.time() < t_end * (1.0 - 1e-12) {
-        let dt = (alpha * SoundSpeedNd::unit_step(&s.view()).ok()?).min(t_end - s.time());
+        let dt = (alpha * SoundSpeed::unit_step(&s.view()).ok()?).min(t_end - s.time());
         let failed = s.try_step(dt).and_then(|_| s.accept()).is_err();
         let e = s.total_energy();
         if failed || e.is_nan() || e > 10.0 * e0 {

@@ -61,7 +61,7 @@ fn zero_modulus_is_a_typed_error() {
             ..
         }
     ));
-    let err = SoundSpeed::default().propose(&fx.view()).unwrap_err();
+    let err = StepLimit::<1>::propose(&mut SoundSpeed::default(), &fx.view()).unwrap_err();
     assert!(matches!(
         err,
         LimitError::InvalidState {

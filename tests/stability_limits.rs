@@ -7,7 +7,7 @@ use mpm_dt::{RejectCause, Shape, StepLimit, Verdict};
 use stability_common::*;
 
 #[test]
-fn sound_speed_proposes_alpha_h_over_c_plus_v() {
+fn sound_speed_proposes_alpha_h_over_each_particles_c_plus_v() {
     let mut fx = Fixture::new(
         periodic(10, 2.0),
         Shape::Gimp,
@@ -18,11 +18,14 @@ fn sound_speed_proposes_alpha_h_over_c_plus_v() {
     fx.modulus[3] = 16.0; // c = 2 there
     fx.v[7] = -0.5;
     let mut lim = SoundSpeed::new(SoundSpeedConfig { alpha: 0.6 }).unwrap();
-    let p = lim.propose(&fx.view()).unwrap();
+    let p = StepLimit::<1>::propose(&mut lim, &fx.view()).unwrap();
     let h = 0.2;
-    assert!((p.dt - 0.6 * h / (2.0 + 0.5)).abs() < 1e-15);
-    assert!((p.metrics["dt_eq49"] - h / 2.0).abs() < 1e-15);
-    assert_eq!(lim.name(), "sound_speed");
+    // c = 1.5 everywhere but particle 3: the largest c_p + |v_p| is 2 (particle 3 at rest,
+    // and particle 7, 1.5 + 0.5), not c_max + ‖v‖_∞ = 2.5 of two different particles.
+    assert!((p.dt - 0.6 * h / 2.0).abs() < 1e-15, "{}", p.dt);
+    assert!((p.metrics["dt_sound_unit"] - h / 2.0).abs() < 1e-15);
+    assert!((SoundSpeed::dt_eq49(&fx.view()).unwrap() - h / 2.0).abs() < 1e-15);
+    assert_eq!(StepLimit::<1>::name(&lim), "sound_speed");
 }
 
 #[test]
@@ -166,8 +169,11 @@ fn checkpoint_and_scale_safety() {
         .restore_state(&serde_json::json!({"safety": 3.0}))
         .is_err());
     let mut s = SoundSpeed::new(SoundSpeedConfig { alpha: 0.5 }).unwrap();
-    s.scale_safety(0.5);
+    StepLimit::<1>::scale_safety(&mut s, 0.5);
     assert!((s.config().alpha - 0.25).abs() < 1e-15);
+    // The same limit in 2D takes the same factor.
+    StepLimit::<2>::scale_safety(&mut s, 0.5);
+    assert!((s.config().alpha - 0.125).abs() < 1e-15);
 }
 
 /// The opt-in cached [`mpm_dt::stability::Refresh`] policy serves most proposals from the cached

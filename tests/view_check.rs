@@ -8,9 +8,9 @@
 use mpm_dt::controller::standard_limits;
 use mpm_dt::controller::{Controller, ControllerConfig, ControllerError};
 use mpm_dt::limit::StepLimit;
-use mpm_dt::limits_nd::SoundSpeedNd;
 use mpm_dt::nd::scenario::ScenarioNd;
 use mpm_dt::nd::{GridNd, SolverNd, Vector, WeightsNd};
+use mpm_dt::sound_speed::{SoundSpeed, SoundSpeedConfig};
 use mpm_dt::{StepError, Stepper, ViewError, ViewNd};
 use proptest::prelude::*;
 
@@ -235,7 +235,12 @@ fn mass_one_short_is_named_not_a_panic() {
 fn x_one_short_is_named_without_the_temporal_limit() {
     let mut s = tampered(Misuse::Truncate(0, 1));
     // Only the sound-speed limit, which reads `x` nowhere.
-    let e = door_error(&mut s, Some(vec![Box::new(SoundSpeedNd { alpha: 0.5 })]));
+    let e = door_error(
+        &mut s,
+        Some(vec![Box::new(
+            SoundSpeed::new(SoundSpeedConfig { alpha: 0.5 }).unwrap(),
+        )]),
+    );
     assert_eq!(e.array(), "x", "{e}");
 }
 

@@ -2,8 +2,8 @@
 //! `dt = α · min_a h_a/(c_p + |v_a|)`, re-evaluated on every committed state, the last step
 //! clamped to `t_end`.
 
-use mpm_dt::limits_nd::SoundSpeedNd;
 use mpm_dt::nd::SolverNd;
+use mpm_dt::sound_speed::SoundSpeed;
 use mpm_dt::{Dim, Dimension, Stepper, ViewNd};
 use std::time::Instant;
 
@@ -33,7 +33,7 @@ where
     let start = Instant::now();
     let mut blew_up = None;
     while s.time() < t_end * (1.0 - 1e-14) {
-        let dt = match SoundSpeedNd::unit_step(&s.view()) {
+        let dt = match SoundSpeed::unit_step(&s.view()) {
             Ok(u) => (alpha * u).min(t_end - s.time()),
             Err(e) => {
                 blew_up = Some(e.to_string());

@@ -2,7 +2,7 @@
 
 use crate::{run_fixed, PolicyResult, Reference};
 use mpm_dt::scenario::Scenario;
-use mpm_dt::stability::{SoundSpeed, SoundSpeedConfig};
+use mpm_dt::sound_speed::SoundSpeed;
 use mpm_dt::Stepper;
 
 /// The fixed rule with mpm-dt's step count (module docs of `compare`): its row, and the synchronised
@@ -48,9 +48,7 @@ pub(crate) fn run_matched(
         return Ok(None);
     }
     let start = scenario.build().map_err(|e| e.to_string())?;
-    let unit = SoundSpeed::new(SoundSpeedConfig { alpha: 1.0 })
-        .and_then(|l| l.dt(&start.view()))
-        .map_err(|e| e.to_string())?;
+    let unit = SoundSpeed::unit_step(&start.view()).map_err(|e| e.to_string())?;
     let mut alpha = dt_mean / unit;
     // Steps fall as α grows: `more` took more steps than the target (stable), `fewer` took
     // fewer or blew up.

@@ -39,7 +39,7 @@ mod summary;
 
 use mpm88::{build, Scene, MPM88_DT};
 use mpm_dt::controller::{Controller, ControllerConfig};
-use mpm_dt::limits_nd::SoundSpeedNd;
+use mpm_dt::sound_speed::SoundSpeed;
 use mpm_dt::Stepper;
 use solver::MlsMpm;
 use std::process::ExitCode;
@@ -348,7 +348,7 @@ fn main() -> ExitCode {
         // The rules of thumb: dt = α·h/(c_p + |v|), re-evaluated every step.
         for alpha in [0.3, 0.4, 0.5, 0.9] {
             let r = run_rule(scene, &|s: &MlsMpm| {
-                SoundSpeedNd::unit_step(&s.view())
+                SoundSpeed::unit_step(&s.view())
                     .map(|u| alpha * u)
                     .map_err(|e| e.to_string())
             });

@@ -5,8 +5,7 @@
 //! and any other `Stepper<D>` (the MLS-MPM scene of `mls_mpm`).
 
 use mpm_dt::controller::{Controller, ControllerConfig};
-use mpm_dt::limits_nd::SoundSpeedNd;
-use mpm_dt::stability::{SoundSpeed, SoundSpeedConfig};
+use mpm_dt::sound_speed::{SoundSpeed, SoundSpeedConfig};
 use mpm_dt::{Dim, Dimension, Stepper, View, ViewNd};
 use serde::Serialize;
 use std::time::Instant;
@@ -105,7 +104,7 @@ where
     } else {
         while s.time() < t_end * (1.0 - 1e-14) {
             let dt = match policy {
-                Policy::Fixed(a) => SoundSpeedNd::unit_step(&s.view())
+                Policy::Fixed(a) => SoundSpeed::unit_step(&s.view())
                     .map(|u| a * u)
                     .map_err(|e| e.to_string()),
                 Policy::Shipped(dt) => Ok(dt),

@@ -18,7 +18,8 @@
 use super::filter::FilterPreset;
 use super::growth::GrowthConfig;
 use crate::limits_nd::StabilityNdConfig;
-use crate::stability::{SoundSpeedConfig, StabilityConfig, StabilityError};
+use crate::sound_speed::SoundSpeedConfig;
+use crate::stability::{StabilityConfig, StabilityError};
 use crate::temporal::TemporalErrorConfig;
 use serde::{Deserialize, Serialize};
 
@@ -98,7 +99,7 @@ pub struct ControllerConfig {
     /// the growth monitor lowers the factor (×0.9 per detection) when moving particles make
     /// it too bold.
     pub stability: Option<StabilityConfig>,
-    /// The [`crate::stability::SoundSpeed`] limit of [`super::Controller::standard`]; `null`
+    /// The [`crate::sound_speed::SoundSpeed`] limit of [`super::Controller::standard`]; `null`
     /// leaves it out. Default `α = 1`: eq 49 with the particle speed added, `h/(c + |v|)`.
     /// It is a *cap*, not the working limit — the true GIMP critical steps are 0.69–0.80
     /// `h/c`, which the stability limit tracks — and binds only when particles move fast
@@ -268,7 +269,6 @@ impl ControllerConfig {
                 field: match (prefix, field) {
                     ("stability", "safety") => "stability.safety",
                     ("stability", "tol") => "stability.tol",
-                    ("sound_speed", "alpha") => "sound_speed.alpha",
                     (p, _) => p,
                 },
                 value,
@@ -290,7 +290,7 @@ impl ControllerConfig {
             crate::stability::Stability::new(c).map_err(|e| stability_field(e, "stability"))?;
         }
         if let Some(c) = self.sound_speed {
-            crate::stability::SoundSpeed::new(c).map_err(|e| stability_field(e, "sound_speed"))?;
+            crate::sound_speed::SoundSpeed::new(c)?;
         }
         Ok(())
     }

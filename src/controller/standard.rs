@@ -3,12 +3,13 @@
 //!
 //! One config builds the same four limits in every dimension, in this order: the sound-speed
 //! cap (eq 49 with the particle speed), the stability limit (eqs 56–58), the temporal error
-//! (eqs 20–30) and the growth monitor, each as the config enables and sets it. What differs
-//! by dimension is the implementation behind each name, chosen by [`StandardLimits`]:
+//! (eqs 20–30) and the growth monitor, each as the config enables and sets it. The
+//! sound-speed cap is one limit for every dimension; for the others the implementation
+//! behind each name differs by dimension, chosen by [`StandardLimits`]:
 //!
 //! | limit | 1D | 2D and 3D |
 //! |---|---|---|
-//! | sound speed | [`crate::stability::SoundSpeed`] | [`crate::limits_nd::SoundSpeedNd`] |
+//! | sound speed | [`crate::sound_speed::SoundSpeed`] | the same |
 //! | stability | [`crate::stability::Stability`] | [`crate::limits_nd::StabilityNd`] |
 //! | temporal error | [`super::TemporalError`] | [`crate::limits_nd::TemporalErrorNd`] |
 //! | growth | [`super::GrowthMonitor`] | [`crate::limits_nd::GrowthNd`] (with `config.gravity`) |
@@ -21,8 +22,9 @@ use super::{ConfigError, Controller, ControllerConfig, ControllerError};
 use super::{GrowthMonitor, TemporalError};
 use crate::dimension::{Dim, Dimension};
 use crate::limit::StepLimit;
-use crate::limits_nd::{GrowthNd, SoundSpeedNd, StabilityNd, StabilityNdConfig, TemporalErrorNd};
+use crate::limits_nd::{GrowthNd, StabilityNd, StabilityNdConfig, TemporalErrorNd};
 use crate::nd::{Vector, ViewNd};
+use crate::sound_speed::SoundSpeed;
 
 /// The library's limits of one dimension, built from a [`ControllerConfig`] (module docs).
 /// Implemented for `Dim<1>`, `Dim<2>` and `Dim<3>`.
@@ -51,9 +53,7 @@ impl StandardLimits<1> for Dim<1> {
     fn paper_limits(config: &ControllerConfig) -> Result<Vec<Box<dyn StepLimit>>, ConfigError> {
         let mut limits: Vec<Box<dyn StepLimit>> = Vec::new();
         if let Some(c) = config.sound_speed {
-            limits.push(Box::new(
-                crate::stability::SoundSpeed::new(c).map_err(invalid)?,
-            ));
+            limits.push(Box::new(SoundSpeed::new(c)?));
         }
         if let Some(c) = config.stability {
             limits.push(Box::new(
@@ -170,7 +170,9 @@ where
 {
     let mut limits: Vec<Box<dyn StepLimit<D>>> = Vec::new();
     if let Some(s) = &config.sound_speed {
-        limits.push(Box::new(SoundSpeedNd { alpha: s.alpha }));
+        // Unchecked here (this function returns no error): `Controller::new` validates the
+        // config, `alpha` included, before any limit runs.
+        limits.push(Box::new(SoundSpeed::unchecked(*s)));
     }
     if let Some(s) = &config.stability {
         limits.push(Box::new(StabilityNd::<D>::new(StabilityNdConfig {

@@ -1,6 +1,7 @@
 //! The time-step limits in two and three dimensions, and the controller that combines them.
 //!
-//! * [`SoundSpeedNd`] — `α · min_p min_a h_a/(c_p + |v_a|)` (eq 49 generalised);
+//! * [`crate::sound_speed::SoundSpeed`] — `α · min_p min_a h_a/(c_p + |v_a|)` (eq 49
+//!   generalised; one limit for every dimension, its 2D/3D kernel in [`sound_speed`]);
 //! * [`StabilityNd`] — `safety · √(2/λmax(M⁻¹K))` (eq 56 generalised, [`stiffness`]),
 //!   `λmax` refreshed by Lanczos only when particles have moved or moduli changed enough,
 //!   or stepped on the guaranteed element bound ([`element_bound`]) where that is close
@@ -13,7 +14,7 @@
 //!
 //! [`crate::controller::standard_limits`] builds the controller's list from a
 //! [`crate::controller::ControllerConfig`]:
-//! `sound_speed.alpha` → [`SoundSpeedNd`], `stability.safety` and `stability_nd` →
+//! `sound_speed.alpha` → [`crate::sound_speed::SoundSpeed`], `stability.safety` and `stability_nd` →
 //! [`StabilityNd`], `temporal` → [`TemporalErrorNd`] (when `temporal.enabled`),
 //! `growth.enabled`, `window`, `windows`, `energy_tol` → [`GrowthNd`] (over
 //! `windows · window` steps, default 100, tolerance 10 %). The fields that apply in 1D
@@ -61,8 +62,8 @@ pub mod temporal_error;
 mod temporal_sweep;
 pub mod transfer;
 
+pub use crate::sound_speed::SOUND_SPEED;
 pub use growth::{GrowthNd, GROWTH};
-pub use sound_speed::{SoundSpeedNd, SOUND_SPEED};
 pub use stability::{StabilityNd, STABILITY};
 pub use stability_config::StabilityNdConfig;
 pub use temporal_error::TemporalErrorNd;

@@ -5,6 +5,7 @@
 //! ```text
 //! E_t = E_t(F)              ρ = m / (F V⁰)            (written out: the view's fields)
 //! c²  = max_p E_t/ρ         |v|max = max_p |v_p|      (maxima)
+//! signal = max_p (√(E_t/ρ) + |v_p|)                   (the sound-speed limit's maximum)
 //! energy = Σ_p ½ m v² + ½ σ² F V⁰ / E_t               (crate::controller::total_energy)
 //! ok  = every E_t and ρ positive and finite
 //! ```
@@ -39,6 +40,7 @@ pub(super) struct SummaryParts {
 pub(super) struct SummaryLanes {
     c2: [f64; L],
     speed: [f64; L],
+    signal: [f64; L],
     energy: [f64; L],
     ok: bool,
 }
@@ -86,6 +88,7 @@ impl SummaryLanes {
         Self {
             c2: [0.0; L],
             speed: [0.0; L],
+            signal: [0.0; L],
             energy: [0.0; L],
             ok: true,
         }
@@ -106,7 +109,9 @@ impl SummaryLanes {
         let et = tangent(f);
         let rho = m / (f * v0);
         (*et_out, *rho_out) = (et, rho);
-        self.c2[l] = greater(et / rho, self.c2[l]);
+        let q = et / rho;
+        self.c2[l] = greater(q, self.c2[l]);
+        self.signal[l] = greater(q.sqrt() + v.abs(), self.signal[l]);
         checks.zero[l] += et * 0.0 + rho * 0.0;
         checks.lo[l] = smaller(smaller(et, rho), checks.lo[l]);
         self.speed[l] = greater(v.abs(), self.speed[l]);
@@ -165,7 +170,8 @@ impl SummaryLanes {
     pub(super) fn finish(self) -> SummaryParts {
         let max = |l: [f64; L]| l.iter().fold(0.0_f64, |a, &b| a.max(b));
         SummaryParts {
-            summary: PassSummary::new(max(self.c2), max(self.speed), sum_energy_lanes(self.energy)),
+            summary: PassSummary::new(max(self.c2), max(self.speed), sum_energy_lanes(self.energy))
+                .with_signal_speed(max(self.signal)),
             ok: self.ok,
         }
     }
@@ -231,6 +237,7 @@ mod avx2 {
             let abs_mask = _mm256_castsi256_pd(_mm256_set1_epi64x(i64::MAX));
             let mut c2 = _mm256_loadu_pd(lanes.c2.as_ptr());
             let mut speed = _mm256_loadu_pd(lanes.speed.as_ptr());
+            let mut signal = _mm256_loadu_pd(lanes.signal.as_ptr());
             let mut energy = _mm256_loadu_pd(lanes.energy.as_ptr());
             let mut zero = _mm256_loadu_pd(checks.zero.as_ptr());
             let mut lo = _mm256_loadu_pd(checks.lo.as_ptr());
@@ -249,11 +256,14 @@ mod avx2 {
                 let rho = _mm256_div_pd(m, _mm256_mul_pd(f, v0));
                 _mm256_storeu_pd(et_out.add(c), et);
                 _mm256_storeu_pd(rho_out.add(c), rho);
-                c2 = greater(_mm256_div_pd(et, rho), c2);
+                let q = _mm256_div_pd(et, rho);
+                c2 = greater(q, c2);
                 let z = _mm256_add_pd(_mm256_mul_pd(et, zero_v), _mm256_mul_pd(rho, zero_v));
                 zero = _mm256_add_pd(zero, z);
                 lo = smaller(smaller(et, rho), lo);
-                speed = greater(_mm256_and_pd(v, abs_mask), speed);
+                let v_abs = _mm256_and_pd(v, abs_mask);
+                speed = greater(v_abs, speed);
+                signal = greater(_mm256_add_pd(_mm256_sqrt_pd(q), v_abs), signal);
                 let kinetic = _mm256_mul_pd(_mm256_mul_pd(_mm256_mul_pd(half, m), v), v);
                 let et_pos = _mm256_blendv_pd(inf, et, _mm256_cmp_pd::<_CMP_GT_OQ>(et, zero_v));
                 let ss = _mm256_mul_pd(_mm256_mul_pd(half, s), s);
@@ -263,6 +273,7 @@ mod avx2 {
             }
             _mm256_storeu_pd(lanes.c2.as_mut_ptr(), c2);
             _mm256_storeu_pd(lanes.speed.as_mut_ptr(), speed);
+            _mm256_storeu_pd(lanes.signal.as_mut_ptr(), signal);
             _mm256_storeu_pd(lanes.energy.as_mut_ptr(), energy);
             _mm256_storeu_pd(checks.zero.as_mut_ptr(), zero);
             _mm256_storeu_pd(checks.lo.as_mut_ptr(), lo);
@@ -316,6 +327,7 @@ mod tests {
                     (
                         bits(&lanes.c2),
                         bits(&lanes.speed),
+                        bits(&lanes.signal),
                         bits(&lanes.energy),
                         bits(&checks.zero),
                         bits(&checks.lo),

@@ -143,7 +143,7 @@ impl<'a, const D: usize> ParticleBounds<'a, D> {
 
     /// Adds particle `p` with velocity `v`, `V_p/m_p` = `per_mass` and its factors (`None`:
     /// its stencil could not be formed, the bound `+∞`). The wave speed and the unit step
-    /// are formed exactly as [`crate::limits_nd::SoundSpeedNd::unit_step`] forms them.
+    /// are formed exactly as [`crate::limits_nd::sound_speed::pass_unit_step`] forms them.
     #[inline(always)]
     pub fn add(
         &mut self,

@@ -120,7 +120,7 @@ pub struct SummaryNd<const D: usize> {
     /// it with a pass over the weights when it needs it.
     pub element_bound: Option<f64>,
     /// `min_p min_a h_a/(c_p + |v_{p,a}|)`, the speed-of-sound step at α = 1
-    /// ([`crate::limits_nd::SoundSpeedNd::unit_step`]), if the stepper computed it in its
+    /// ([`crate::limits_nd::sound_speed::pass_unit_step`]), if the stepper computed it in its
     /// pass; `None` makes the sound-speed limit make a pass of its own.
     pub sound_unit_step: Option<f64>,
 }

@@ -112,15 +112,35 @@ pub(crate) fn check_view(view: &crate::stepper::View<'_>) -> Result<(), Stabilit
     }
 }
 
-/// [`check_view`] and, from the same pass over the particles, `(max_p E_t,p/ρ_p, max_p |v_p|)`
-/// (both `≥ 0`). The squared wave speed is returned rather than `max_p √(E_t/ρ)`: `√` is
-/// monotone and correctly rounded, so `√(max_p E_t/ρ) = max_p √(E_t/ρ)` bit for bit, at one
-/// square root per view instead of one per particle.
-pub(crate) fn check_view_speeds(
-    view: &crate::stepper::View<'_>,
-) -> Result<(f64, f64), StabilityError> {
+/// The particles' speeds a state's sound-speed step is formed from (all `≥ 0`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Speeds {
+    /// `max_p E_t,p/ρ_p`, the squared largest wave speed.
+    pub c2: f64,
+    /// `max_p |v_p|`.
+    pub v: f64,
+    /// `max_p (√(E_t,p/ρ_p) + |v_p|)`, the largest signal speed
+    /// ([`crate::sound_speed`]).
+    pub signal: f64,
+}
+
+/// `max_p (√(E_t,p/ρ_p) + |v_p|)` by a plain pass, for values known to be finite and positive.
+fn plain_signal(view: &crate::stepper::View<'_>) -> f64 {
+    (0..view.n_particles())
+        .map(|p| view.wave_speed(p) + view.v[p].abs())
+        .fold(0.0, max)
+}
+
+/// [`check_view`] and, from the same pass over the particles, the [`Speeds`]. The squared
+/// wave speed is returned rather than `max_p √(E_t/ρ)`: `√` is monotone and correctly
+/// rounded, so `√(max_p E_t/ρ) = max_p √(E_t/ρ)` bit for bit.
+pub(crate) fn check_view_speeds(view: &crate::stepper::View<'_>) -> Result<Speeds, StabilityError> {
     match check_view_scan(view, true) {
-        Some(speeds) => Ok(speeds),
+        Some((c2, v, signal)) => Ok(Speeds {
+            c2,
+            v,
+            signal: signal.unwrap_or_else(|| plain_signal(view)),
+        }),
         None => {
             check_view_exact(view)?;
             // Unreachable in practice: the scan fails only where the exact check fails.
@@ -130,7 +150,11 @@ pub(crate) fn check_view_speeds(
                 .map(|p| view.tangent_modulus[p] / view.density[p])
                 .fold(0.0, f64::max);
             let v = view.v.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
-            Ok((c2, v))
+            Ok(Speeds {
+                c2,
+                v,
+                signal: plain_signal(view),
+            })
         }
     }
 }
@@ -140,13 +164,17 @@ pub(crate) fn check_view_speeds(
 /// chain, and `f64::is_finite` (which compiles to scalar integer bit tests) is not used.
 const LANES: usize = 8;
 
-/// The fast path of [`check_view`]: `Some((max E_t/ρ, max |v|))` (zeros unless `speeds`) when
-/// every check passes, `None` when any may fail.
+/// The fast path of [`check_view`]: `Some((max E_t/ρ, max |v|, max (√(E_t/ρ) + |v|)))` (zeros
+/// unless `speeds`; the last `None` where a trusted summary vouches for the values but does
+/// not carry it) when every check passes, `None` when any may fail.
 ///
 /// The scan only has to be *sound*: it never returns `Some` for a view the exact check
 /// rejects, while a false alarm (an overflowing sum of large finite values) merely sends
 /// the caller to [`check_view_exact`].
-fn check_view_scan(view: &crate::stepper::View<'_>, speeds: bool) -> Option<(f64, f64)> {
+fn check_view_scan(
+    view: &crate::stepper::View<'_>,
+    speeds: bool,
+) -> Option<(f64, f64, Option<f64>)> {
     let n = view.n_particles();
     let nn = view.grid.n_nodes();
     if n == 0
@@ -178,9 +206,13 @@ fn check_view_scan(view: &crate::stepper::View<'_>, speeds: bool) -> Option<(f64
     // (`crate::pass_summary`): only the sizes, O(1), were left to check.
     if let Some(summary) = view.trusted_summary() {
         return Some(if speeds {
-            (summary.max_wave_speed_sq, summary.max_speed)
+            (
+                summary.max_wave_speed_sq,
+                summary.max_speed,
+                summary.max_signal_speed,
+            )
         } else {
-            (0.0, 0.0)
+            (0.0, 0.0, Some(0.0))
         });
     }
     let out = if speeds {
@@ -213,8 +245,8 @@ fn check_view_scan(view: &crate::stepper::View<'_>, speeds: bool) -> Option<(f64
     (bad == 0.0 && lo > 0.0 && any).then_some(out)
 }
 
-/// The particle part of [`check_view_scan`]; with `SPEEDS` it also takes `max E_t/ρ` and
-/// `max |v|` (in the passes that check `E_t`, `ρ` and `v`).
+/// The particle part of [`check_view_scan`]; with `SPEEDS` it also takes `max E_t/ρ`,
+/// `max |v|` and `max (√(E_t/ρ) + |v|)` (in the pass that checks `E_t`, `ρ` and `v`).
 ///
 /// One vectorised pass per field (each field is still read once; `E_t` and `ρ` together).
 /// A value `x` is finite exactly when `0·x` is `±0` rather than NaN, so a lane's sum of `0·x`
@@ -222,7 +254,9 @@ fn check_view_scan(view: &crate::stepper::View<'_>, speeds: bool) -> Option<(f64
 /// through their minimum. The maxima are taken per lane and then over the lanes; for values
 /// without NaN `max` does not depend on the order, so they equal the left-to-right
 /// `f64::max` fold bit for bit.
-fn scan_particles<const SPEEDS: bool>(view: &crate::stepper::View<'_>) -> Option<(f64, f64)> {
+fn scan_particles<const SPEEDS: bool>(
+    view: &crate::stepper::View<'_>,
+) -> Option<(f64, f64, Option<f64>)> {
     let ok = [view.x, view.sigma].into_iter().all(all_finite)
         && [view.f, view.volume0, view.mass]
             .into_iter()
@@ -234,11 +268,10 @@ fn scan_particles<const SPEEDS: bool>(view: &crate::stepper::View<'_>) -> Option
         return (all_finite(view.v)
             && all_positive(view.tangent_modulus)
             && all_positive(view.density))
-        .then_some((0.0, 0.0));
+        .then_some((0.0, 0.0, Some(0.0)));
     }
-    let vmax = finite_max_abs(view.v)?;
-    let c2 = positive_max_ratio(view.tangent_modulus, view.density)?;
-    Some((c2, vmax))
+    let (c2, vmax, signal) = speed_maxima(view.v, view.tangent_modulus, view.density)?;
+    Some((c2, vmax, Some(signal)))
 }
 
 /// Whether every value is positive and finite (lane-wise, see [`scan_particles`]).
@@ -259,50 +292,45 @@ fn all_positive(values: &[f64]) -> bool {
     bad.iter().all(|&b| b == 0.0) && lo.iter().all(|&l| l > 0.0)
 }
 
-/// `max |v|` if every value is finite (lane-wise, see [`scan_particles`]).
-fn finite_max_abs(values: &[f64]) -> Option<f64> {
-    let mut bad = [0.0_f64; LANES];
-    let mut hi = [0.0_f64; LANES];
-    let mut chunks = values.chunks_exact(LANES);
-    for c in chunks.by_ref() {
-        for k in 0..LANES {
-            bad[k] += c[k] * 0.0;
-            hi[k] = max(c[k].abs(), hi[k]);
-        }
-    }
-    for &x in chunks.remainder() {
-        bad[0] += x * 0.0;
-        hi[0] = max(x.abs(), hi[0]);
-    }
-    bad.iter()
-        .all(|&b| b == 0.0)
-        .then(|| hi.into_iter().fold(0.0, max))
-}
-
-/// `max_p e_p/r_p` if every value of `e` and `r` (equal lengths) is positive and finite
-/// (lane-wise, see [`scan_particles`]).
-fn positive_max_ratio(e: &[f64], r: &[f64]) -> Option<f64> {
-    if e.len() != r.len() {
+/// `(max_p e_p/r_p, max_p |v_p|, max_p (√(e_p/r_p) + |v_p|))` if every value of `v` is finite
+/// and every value of `e` and `r` positive and finite (equal lengths; lane-wise, see
+/// [`scan_particles`]).
+fn speed_maxima(v: &[f64], e: &[f64], r: &[f64]) -> Option<(f64, f64, f64)> {
+    if e.len() != r.len() || v.len() != e.len() {
         return None;
     }
     let mut bad = [0.0_f64; LANES];
     let mut lo = [f64::INFINITY; LANES];
-    let mut hi = [0.0_f64; LANES];
-    let (mut ce, mut cr) = (e.chunks_exact(LANES), r.chunks_exact(LANES));
-    for (a, b) in ce.by_ref().zip(cr.by_ref()) {
+    let (mut c2, mut vm, mut sig) = ([0.0_f64; LANES], [0.0_f64; LANES], [0.0_f64; LANES]);
+    let mut lane = |k: usize, (u, a, b): (f64, f64, f64)| {
+        bad[k] += u * 0.0 + a * 0.0 + b * 0.0;
+        lo[k] = min(min(a, b), lo[k]);
+        let q = a / b;
+        c2[k] = max(q, c2[k]);
+        vm[k] = max(u.abs(), vm[k]);
+        sig[k] = max(q.sqrt() + u.abs(), sig[k]);
+    };
+    let (mut cv, mut ce, mut cr) = (
+        v.chunks_exact(LANES),
+        e.chunks_exact(LANES),
+        r.chunks_exact(LANES),
+    );
+    for ((u, a), b) in cv.by_ref().zip(ce.by_ref()).zip(cr.by_ref()) {
         for k in 0..LANES {
-            bad[k] += a[k] * 0.0 + b[k] * 0.0;
-            lo[k] = min(min(a[k], b[k]), lo[k]);
-            hi[k] = max(a[k] / b[k], hi[k]);
+            lane(k, (u[k], a[k], b[k]));
         }
     }
-    for (&a, &b) in ce.remainder().iter().zip(cr.remainder()) {
-        bad[0] += a * 0.0 + b * 0.0;
-        lo[0] = min(min(a, b), lo[0]);
-        hi[0] = max(a / b, hi[0]);
+    let rest = cv
+        .remainder()
+        .iter()
+        .zip(ce.remainder())
+        .zip(cr.remainder());
+    for ((&u, &a), &b) in rest {
+        lane(0, (u, a, b));
     }
+    let fold = |l: [f64; LANES]| l.into_iter().fold(0.0, max);
     (bad.iter().all(|&b| b == 0.0) && lo.iter().all(|&l| l > 0.0))
-        .then(|| hi.into_iter().fold(0.0, max))
+        .then(|| (fold(c2), fold(vm), fold(sig)))
 }
 
 /// `a < b ? a : b` (one `minpd`; only used where NaN has been excluded or is caught

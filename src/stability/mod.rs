@@ -4,7 +4,7 @@
 //!
 //! | file | concept | equation |
 //! |---|---|---|
-//! | [`sound_speed`] | the [`SoundSpeed`] step limit `dt ≤ α h/(c + ‖v‖_∞)` | eq 49, generalised |
+//! | [`sound_speed`] | the 1D kernel of the [`SoundSpeed`] limit `dt ≤ α min_p h/(c_p + |v_p|)` (one limit for every dimension, [`crate::sound_speed`]) | eq 49, generalised |
 //! | [`operator`] | the eq 56 operator `D*F`, matrix-free in `O(nnz)` and dense (faer) | eqs 50–56 |
 //! | [`nodal`] | the same operator reduced to the nodes, `M^{1/2} K_N M^{1/2}` (banded, same λmax) | eq 56 |
 //! | [`lambda_max`] | `λmax(D*F)` by a warm-started Lanczos iteration | eq 56 |
@@ -86,6 +86,7 @@ pub use lambda_max::{
 };
 pub use nodal::NodalOperator;
 
+pub use crate::sound_speed::{SoundSpeed, SoundSpeedConfig};
 pub use bound58::{bound58, Bound58, Bound58Reading};
 #[cfg(feature = "reference")]
 pub use empirical::{
@@ -94,4 +95,3 @@ pub use empirical::{
 };
 pub use limit::{Refresh, Stability, StabilityConfig, Tracking};
 pub use operator::Eq56Operator;
-pub use sound_speed::{SoundSpeed, SoundSpeedConfig};

@@ -2,7 +2,8 @@
 //!
 //! Every limit reads every view, and three of them would otherwise each make a pass over
 //! the particles for a handful of reductions: the stability module validates the fields
-//! and takes `max_p E_t,p/ρ_p` and `max_p |v_p|` (the sound-speed limit, eq 49), the growth
+//! and takes `max_p E_t,p/ρ_p`, `max_p |v_p|` and `max_p (c_p + |v_p|)` (the sound-speed
+//! limit, eq 49), the growth
 //! monitor sums the total energy, and the controller looks for a non-finite value in the
 //! trial. A solver's step already touches every particle once; it can take the same
 //! reductions there, in registers, for a few operations per particle (measured: README
@@ -23,7 +24,9 @@
 //!
 //! A stepper may add the element bound ([`PassSummary::element_bound`], from the weights
 //! its pass evaluates anyway); it vouches that the value is the formula's over the view's
-//! own weights, moduli and masses.
+//! own weights, moduli and masses. It may add the largest signal speed
+//! ([`PassSummary::max_signal_speed`], `max_p (√(E_t,p/ρ_p) + |v_p|)`, the speed-of-sound
+//! limit's maximum); without it that limit takes it by a pass of its own.
 //!
 //! The maxima do not depend on the order of the particles, so a stepper computes them in
 //! any order; the energy must follow [`crate::controller::total_energy`]'s grouping (particle
@@ -59,6 +62,13 @@ pub struct PassSummary {
     /// its anchors from it ([`crate::stability::certified`], "Between anchors on the bound").
     #[serde(default)]
     pub element_bound: Option<f64>,
+    /// `max_p (√(E_t,p/ρ_p) + |v_p|)`, the largest signal speed, from which the
+    /// speed-of-sound limit forms its step `α h / max_p(c_p + |v_p|)`
+    /// ([`crate::sound_speed`]); `None` when the stepper does not take it (the limit then
+    /// takes it by a pass of its own). Each particle's `√` is `f64::sqrt` of the same
+    /// quotient `E_t/ρ` the view's fields give ([`crate::View::wave_speed`]).
+    #[serde(default)]
+    pub max_signal_speed: Option<f64>,
     /// The view it was stamped for ([`PassSummary::stamp`]); `None` until stamped.
     #[serde(skip)]
     stamp: Option<Stamp>,
@@ -94,6 +104,7 @@ impl PassSummary {
             max_speed,
             total_energy,
             element_bound: None,
+            max_signal_speed: None,
             stamp: None,
         }
     }
@@ -102,6 +113,14 @@ impl PassSummary {
     pub fn with_element_bound(self, bound: f64) -> Self {
         Self {
             element_bound: Some(bound),
+            ..self
+        }
+    }
+
+    /// The summary with its [`Self::max_signal_speed`] set.
+    pub fn with_signal_speed(self, speed: f64) -> Self {
+        Self {
+            max_signal_speed: Some(speed),
             ..self
         }
     }

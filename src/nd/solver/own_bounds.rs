@@ -8,7 +8,7 @@
 //! twice — each particle's `λ_p` from its gradient metric ([`crate::nd::factor_metric`],
 //! an upper bound of the one the library would compute) and
 //! [`crate::limits_nd::element_bound::from_metric`], and `min_a h_a/(c_p + |v_{p,a}|)`
-//! exactly as [`crate::limits_nd::SoundSpeedNd::unit_step`] forms it. A state the step did
+//! exactly as [`crate::limits_nd::sound_speed::pass_unit_step`] forms it. A state the step did
 //! not write (the initial one, one set by the user) takes a pass of its own. On a grid
 //! split over processes both are the whole run's (two scalar reductions).
 

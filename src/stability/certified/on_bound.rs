@@ -60,7 +60,7 @@ impl CertifiedTracker {
         // contract), before any state changes: a view the scan refuses goes to the operator.
         let c2_ref = match view.trusted_summary() {
             Some(s) => s.max_wave_speed_sq,
-            None => crate::stability::error::check_view_speeds(view).ok()?.0,
+            None => crate::stability::error::check_view_speeds(view).ok()?.c2,
         };
         anchor.served = anchor.served.saturating_add(1);
         let ratio = bound / reference.bound;
