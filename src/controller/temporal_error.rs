@@ -25,11 +25,13 @@
 //!
 //! ```text
 //! dsm = sqrt( 1/(2N) Σ_p [ (le_v,p / w_v,p)² + (le_σ,p / w_σ,p)² ] )     (weighted RMS norm)
-//! w_u,p = atol_u + atol_rel · ‖u‖_∞ + rtol · max(|u_p^n|, |u_p^{n+1}|)
+//! w_u,p = atol_u + atol_rel · s_u + rtol · max(|u_p^n|, |u_p^{n+1}|)
 //! ```
 //!
-//! where `‖u‖_∞` is the field's scale: the largest magnitude over the particles in the
-//! committed, trial and previous states, in *energy-equivalent* units — a vibrating body
+//! where `s_u` is the field's scale: the largest magnitude `‖u‖_∞` over the particles in
+//! the committed and trial states, or the last checked step's while this one's has not grown
+//! by more than 10 % (the rule of every dimension, [`crate::temporal::scales`]), in
+//! *energy-equivalent* units — a vibrating body
 //! swaps its energy between `v` and `σ`, so the velocity scale is at least
 //! `max_p |σ_p|/(ρc)_p` and the stress scale at least `max_p (ρc)_p |v_p|`, with the
 //! acoustic impedance `ρc = √(E_t ρ)`. Without this, a field that starts at zero (the stress
@@ -63,6 +65,7 @@ use super::temporal_kernels::{dispatch_rates, dispatch_sums, Fields, Terms};
 use crate::limit::{Judgement, LimitError, Metrics, Proposal, RejectCause, StepLimit, Verdict};
 use crate::stepper::View;
 use crate::temporal::deferral::{self, Deferral, DeferredTrial, Scheduled};
+use crate::temporal::scales::weight_scales;
 use crate::temporal::TemporalErrorConfig;
 pub use crate::temporal::TEMPORAL_ERROR;
 use crate::weights::WeightKind;
@@ -278,10 +281,9 @@ impl TemporalError {
                 (a1, a0, r1, r0, dt)
             }
         };
-        let (prev_v, prev_s) = self
-            .history
-            .as_ref()
-            .map_or((0.0, 0.0), |h| (h.v_scale, h.sigma_scale));
+        // The weights' field scales: the rule of every dimension (`crate::temporal::scales`).
+        let prev = self.history.as_ref().map(|h| (h.v_scale, h.sigma_scale));
+        let (weight_v, weight_s) = weight_scales((v_scale, sigma_scale), prev);
         let c = &self.config;
         let spatial = match c.balance {
             Some(kappa) => {
@@ -307,8 +309,8 @@ impl TemporalError {
                 c_span: 0.5 * dt * dt / span,
                 atol_v: c.atol_v,
                 atol_sigma: c.atol_sigma,
-                abs_v: c.atol_rel() * v_scale.max(prev_v),
-                abs_s: c.atol_rel() * sigma_scale.max(prev_s),
+                abs_v: c.atol_rel() * weight_v,
+                abs_s: c.atol_rel() * weight_s,
                 rtol: c.rtol,
             },
             n,

@@ -24,18 +24,18 @@
 //!
 //! ```text
 //! dsm = sqrt( 1/(2N) Σ_p [ (le_v,p / w_v,p)² + (le_σ,p / w_σ,p)² ] )
-//! w_u,p = atol_u + atol_rel · max(‖u‖_∞, ‖u‖_∞ of the previous step) + rtol · û_p
-//! ‖v‖_∞ = max(max_p v̂_p, max_p σ̂_p / z_p),   ‖σ‖_∞ = max(max_p σ̂_p, max_p v̂_p z_p).
+//! w_u,p = atol_u + atol_rel · s_u + rtol · û_p
+//! ‖v‖_∞ = max(max_p v̂_p, max_p σ̂_p / z_p),   ‖σ‖_∞ = max(max_p σ̂_p, max_p v̂_p z_p),
 //! ```
 //!
-//! **One pass.** The 1D limit takes `max(this step's scale, the previous step's)`; here
-//! the weights keep the previous (checked) step's scale unless this step's exceeds it by more than
-//! 10 % (then the sums are redone with the larger one); with no previous step (the first,
-//! or after a lost history) a pass over the fields alone gives the scales first. A scale
-//! that grew by less makes
-//! the weights at most 10 % smaller in their `atol_rel` part than the 1D definition's —
-//! a stricter test — and saves the second pass over the particles that the scale, known
-//! only after the first, would otherwise need.
+//! `s_u` the weights' field scale: the last checked step's `‖u‖_∞` until one of this
+//! check's scales grows by more than 10 %, then the larger of the two — the rule of both
+//! dimensions, [`crate::temporal::scales`].
+//!
+//! **One pass.** The weights are formed before the sweep from the last checked step's
+//! scales, and the sums redone with the larger ones only when a scale grew by more than the
+//! slack; with no previous step (the first, or after a lost history) a pass over the fields
+//! alone gives the scales first.
 //!
 //! **Deferred checks** ([`crate::temporal::deferral`]): while `dsm` stays far below the
 //! tolerance the checks of the next trials are deferred (1, 2, 4, up to 8 trials). On a
@@ -82,10 +82,6 @@ use crate::nd::ViewNd;
 use crate::temporal::deferral::{self, DeferredTrial};
 use crate::temporal::{TemporalErrorConfig, TEMPORAL_ERROR};
 use accept::Judged;
-
-/// Relative growth of a field scale over the previous step's below which the weights keep
-/// the previous scale (one pass over the particles instead of two).
-const SCALE_SLACK: f64 = 0.1;
 
 /// What one estimate gives.
 #[derive(Clone, Copy, Debug)]

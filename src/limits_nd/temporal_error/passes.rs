@@ -2,10 +2,11 @@
 //! committed ones, and the sweeps over them with the weights of the field scales (the
 //! parent module's docs, "One pass").
 
-use super::{Estimate, TemporalErrorNd, SCALE_SLACK};
+use super::{Estimate, TemporalErrorNd};
 use crate::limit::LimitError;
 use crate::limits_nd::temporal_sweep::{sweep, History, Pairing, Sweep, Weights};
 use crate::nd::{Vector, ViewNd};
+use crate::temporal::scales::weight_scales;
 
 /// The sums of an estimate's last sweep, with what its first sweep found: whether every
 /// rate was finite, and the trial's field scales `‖v‖_∞`, `‖σ‖_∞`.
@@ -82,8 +83,8 @@ impl<const D: usize> TemporalErrorNd<D> {
     }
 
     /// The sweeps of an estimate: the first with the previous step's scales (writing the
-    /// rates into `out`), a second with `max(new, previous)` when a scale grew by more
-    /// than [`SCALE_SLACK`].
+    /// rates into `out`), a second with the scales of [`weight_scales`] when a scale grew
+    /// by more than its slack.
     pub(super) fn passes(
         &self,
         before: &ViewNd<'_, D>,
@@ -94,9 +95,8 @@ impl<const D: usize> TemporalErrorNd<D> {
     ) -> Passes {
         // The weights need this trial's field scales, known only after a pass: the first
         // sweep uses the previous step's, and a second sweep, writing nothing, redoes the
-        // sums with `max(new, previous)` only when a scale grew by more than
-        // `SCALE_SLACK` (a run gaining energy). Below that, the weights are
-        // at most that much smaller than the 1D limit's: a stricter test (module docs).
+        // sums with `max(new, previous)` only when a scale grew by more than the slack of
+        // `crate::temporal::scales` (a run gaining energy).
         let pool = self.pool.as_deref();
         let (prev_v, prev_s) = match self.history.as_ref() {
             Some(h) => (h.v_scale, h.sigma_scale),
@@ -116,12 +116,11 @@ impl<const D: usize> TemporalErrorNd<D> {
         );
         let finite = first.finite;
         let (v_scale, sigma_scale) = field_scales(first.maxima);
-        let grew = |new: f64, prev: f64| new > (1.0 + SCALE_SLACK) * prev;
-        let sweep = if !grew(v_scale, prev_v) && !grew(sigma_scale, prev_s) {
+        let (sv, ss) = weight_scales((v_scale, sigma_scale), Some((prev_v, prev_s)));
+        let sweep = if sv.to_bits() == prev_v.to_bits() && ss.to_bits() == prev_s.to_bits() {
             first
         } else {
-            let w = self.weights(v_scale.max(prev_v), sigma_scale.max(prev_s));
-            sweep(pool, before, after, dt, pair, w, None)
+            sweep(pool, before, after, dt, pair, self.weights(sv, ss), None)
         };
         Passes {
             sweep,
