@@ -31,7 +31,8 @@
 //!   (array lengths, the grid, a finite state, weights forming a partition of unity with
 //!   complete gradients) and the typed [`ViewError`] naming what is wrong.
 //! * [`limits_nd`] — the 2D/3D limits; [`temporal`] — what the temporal-error limits of
-//!   every dimension share.
+//!   every dimension share (settings, deferral, the weights' field scales);
+//!   [`sound_speed`] — the speed-of-sound limit, one for every dimension.
 //! * [`controller`] — the adaptive controller combining the limits
 //!   ([`controller::Controller::standard`] builds the paper's three plus a growth monitor,
 //!   in any dimension).
