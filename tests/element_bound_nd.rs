@@ -187,7 +187,7 @@ fn steps_of(
     let mut limits = standard_limits::<2>(&config, Vector::<2>::zeros());
     for limit in limits.iter_mut() {
         if limit.name() == STABILITY {
-            *limit = Box::new(StabilityNd::<2>::new(stability.clone()));
+            *limit = Box::new(StabilityNd::<2>::new(stability.clone()).unwrap());
         }
     }
     let mut controller = Controller::<2>::new(config, limits).unwrap();

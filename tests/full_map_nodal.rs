@@ -247,7 +247,11 @@ fn the_stability_limit_on_the_full_map_proposes_its_critical_step() {
                 full_map,
                 ..StabilityNdConfig::default()
             };
-            StabilityNd::<2>::new(config).propose(&view).unwrap().dt
+            StabilityNd::<2>::new(config)
+                .unwrap()
+                .propose(&view)
+                .unwrap()
+                .dt
         };
         let (on, off) = (propose(true), propose(false));
         eprintln!(
@@ -282,7 +286,7 @@ fn proposals_on_the_raw_bound_do_not_take_the_full_maps_gain() {
             full_map,
             ..StabilityNdConfig::default()
         };
-        let mut limit = StabilityNd::<2>::new(config);
+        let mut limit = StabilityNd::<2>::new(config).unwrap();
         let first = limit.propose(&view).unwrap();
         let second = limit.propose(&view).unwrap();
         let on_bound = second.metrics.contains_key("bound_proposals");

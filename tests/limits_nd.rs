@@ -240,3 +240,41 @@ fn eq56_full_map_and_empirical_steps_are_ordered_in_2d_and_3d() {
         check(&format!("3D {shape:?} jittered, 1 per cell"), &s);
     }
 }
+
+/// The 2D/3D stability limit built by hand checks its config like the 1D one: a field out
+/// of its range is a typed error naming it.
+#[test]
+fn the_stability_limit_refuses_a_config_field_out_of_range() {
+    use mpm_dt::config_error::ConfigError;
+    use mpm_dt::limits_nd::{StabilityNd, StabilityNdConfig, TransferNd};
+    assert!(StabilityNd::<2>::new(StabilityNdConfig::default()).is_ok());
+    let cases: [(StabilityNdConfig, &str); 3] = [
+        (
+            StabilityNdConfig {
+                safety: 1.5,
+                ..Default::default()
+            },
+            "stability.safety",
+        ),
+        (
+            StabilityNdConfig {
+                refresh_cells: f64::NAN,
+                ..Default::default()
+            },
+            "stability_nd.refresh_cells",
+        ),
+        (
+            StabilityNdConfig {
+                transfer: TransferNd::Apic { inertia: -0.25 },
+                ..Default::default()
+            },
+            "stability_nd.transfer.apic.inertia",
+        ),
+    ];
+    for (config, name) in cases {
+        match StabilityNd::<3>::new(config) {
+            Err(ConfigError::OutOfRange { field, .. }) => assert_eq!(field, name),
+            other => panic!("{name}: {other:?}"),
+        }
+    }
+}

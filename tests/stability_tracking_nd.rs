@@ -53,7 +53,7 @@ fn the_tracked_lambda_follows_a_drifting_block() {
     let config = StabilityNdConfig::default();
     for shape in [ShapeNd::Linear, ShapeNd::Gimp, ShapeNd::BSpline2] {
         let mut solver = drifting(shape, 0.0);
-        let mut limit = StabilityNd::<2>::new(config.clone());
+        let mut limit = StabilityNd::<2>::new(config.clone()).unwrap();
         let h = solver.grid().h_min();
         let dt = 0.05 * h; // c_p ≈ 1.16: 0.0215 of a cell per step along x.
         let steps = 400;

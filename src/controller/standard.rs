@@ -175,7 +175,7 @@ where
         limits.push(Box::new(SoundSpeed::unchecked(*s)));
     }
     if let Some(s) = &config.stability {
-        limits.push(Box::new(StabilityNd::<D>::new(StabilityNdConfig {
+        limits.push(Box::new(StabilityNd::<D>::unchecked(StabilityNdConfig {
             safety: s.safety,
             ..config.stability_nd.clone()
         })));

@@ -85,6 +85,7 @@ use super::stability_config::StabilityNdConfig;
 use super::start::checkerboard_start;
 use super::stiffness::{diagonal_argmax, lanczos_on, NodalSpace};
 use super::transfer::{apic_gain, TransferNd};
+use crate::config_error::ConfigError;
 use crate::dimension::{Dim, Dimension};
 use crate::limit::{LimitError, Metrics, Proposal, StepLimit};
 use crate::nd::ViewNd;
@@ -144,8 +145,15 @@ pub struct StabilityNd<const D: usize> {
 }
 
 impl<const D: usize> StabilityNd<D> {
-    /// A limit with `config`.
-    pub fn new(config: StabilityNdConfig) -> Self {
+    /// A limit with `config`, checked ([`StabilityNdConfig::validate`]: a field out of its
+    /// range is a [`ConfigError`] naming it).
+    pub fn new(config: StabilityNdConfig) -> Result<Self, ConfigError> {
+        config.validate()?;
+        Ok(Self::unchecked(config))
+    }
+
+    /// A limit with `config` not checked (for builders whose caller validates it).
+    pub(crate) fn unchecked(config: StabilityNdConfig) -> Self {
         Self {
             safety: config.safety,
             config,
