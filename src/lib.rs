@@ -18,9 +18,12 @@
 //! * [`dimension`] — the dimension as a type parameter (`Dim<1>`, `Dim<2>`, `Dim<3>`).
 //! * [`grid`], [`shape`], [`weights`] — the 1D background grid, GIMP and linear-hat
 //!   basis functions, and the `S`/`D` matrices in fixed-width particle-major storage.
-//! * [`mpm`] — the reference 1D update-stress-last solver (eqs 17–29).
-//! * [`scenario`] — serde scenario files with validation.
-//! * [`problems`] — problems with exact solutions (the vibrating bar).
+//! * [`testbench`] (`src/testbench/`, the `reference` feature) — the test bench, re-exported
+//!   at its public paths: [`mpm`], the reference 1D update-stress-last solver (eqs 17–29);
+//!   [`scenario`], serde scenario files with validation; [`problems`], problems with exact
+//!   solutions (the vibrating bar); [`memory`]; the 2D/3D reference solver
+//!   [`nd::SolverNd`] with [`nd::scenario`] and [`nd::problems`]; the verification tools
+//!   `stability::empirical` and [`limits_nd::critical`].
 //! * [`estimators`] — the spatial error estimators of Section 4 (eqs 31–44).
 //! * [`stability`] — the sound-speed limit (eq 49), the eq 56 amplification operator and
 //!   its tracked λmax, the eq 58 bound, and exact critical steps for verification.
@@ -84,10 +87,11 @@
 //!
 //! ## Features
 //!
-//! * `reference` (on by default) — the test bench: the reference solvers ([`mpm`],
-//!   [`nd::SolverNd`] and its kernels), their scenarios and exact problems ([`scenario`],
-//!   [`problems`], [`nd::scenario`], [`nd::problems`]), [`memory`], and the verification
-//!   tools that run them (`stability::empirical`, [`limits_nd::critical`]). Without it
+//! * `reference` (on by default) — the test bench ([`testbench`], every file of it under
+//!   `src/testbench/`): the reference solvers ([`mpm`], [`nd::SolverNd`] and its kernels),
+//!   their scenarios and exact problems ([`scenario`], [`problems`], [`nd::scenario`],
+//!   [`nd::problems`]), [`memory`], and the verification tools that run them
+//!   (`stability::empirical`, [`limits_nd::critical`]). Without it
 //!   (`mpm-dt = { version = "…", default-features = false }`) the crate is the controller
 //!   library alone — the stepper contract, views, grids and weights (with the kernels that
 //!   compute weights and nodal fields for a solver that keeps only particles,
@@ -113,18 +117,10 @@ pub mod grid;
 pub mod lanczos;
 pub mod limit;
 pub mod limits_nd;
-#[cfg(feature = "reference")]
-pub mod memory;
-#[cfg(feature = "reference")]
-pub mod mpm;
 pub mod nd;
 pub mod nodal_stiffness;
-#[cfg(feature = "reference")]
-pub mod problems;
 mod recycled;
 pub mod reduce;
-#[cfg(feature = "reference")]
-pub mod scenario;
 pub mod shape;
 pub mod sound_speed;
 pub mod stability;
@@ -132,11 +128,17 @@ mod stencil;
 pub mod stepper;
 pub mod synchronized_velocity;
 pub mod temporal;
+#[cfg(feature = "reference")]
+pub mod testbench;
 pub mod view;
 pub use view::pass_summary;
 pub mod view_check;
 pub mod view_weights;
 pub mod weights;
+
+// The test bench's top-level modules keep their paths (`mpm_dt::mpm`, `mpm_dt::scenario`, …).
+#[cfg(feature = "reference")]
+pub use testbench::{memory, mpm, problems, scenario};
 
 pub use dimension::{Dim, Dimension, StateView, ViewOf};
 pub use grid::{Boundary, Grid};

@@ -46,8 +46,6 @@
 //! ```
 
 pub mod bound_tracking;
-#[cfg(feature = "reference")]
-pub mod critical;
 pub mod element_bound;
 pub mod full_map;
 pub mod growth;
@@ -68,3 +66,8 @@ pub use stability::{StabilityNd, STABILITY};
 pub use stability_config::StabilityNdConfig;
 pub use temporal_error::TemporalErrorNd;
 pub use transfer::{apic_gain, TransferNd};
+
+// The critical steps for verification run the 2D/3D reference solver: they live in the test
+// bench (`src/testbench/limits_nd/critical.rs`); their public path stays here.
+#[cfg(feature = "reference")]
+pub use crate::testbench::limits_nd::critical;

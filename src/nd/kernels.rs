@@ -2,7 +2,7 @@
 //! and particle → grid with the nodal finish (for the views of a solver that keeps only
 //! particles, [`super::fields`], and for the reference solver). Written once for any `D`
 //! over the tensor-product stencil (`nodes_per_axis^D` entries per particle). The
-//! reference solver's grid → particle update is in `nd::update`.
+//! reference solver's grid → particle update is in the test bench (`testbench::nd::update`).
 
 use super::factor_metric::ParticleBounds;
 use super::factors::{form_row, AxisFactors};
@@ -44,7 +44,7 @@ pub(super) fn compute_weights<const D: usize>(
 /// The per-axis factors of a particle at `x` with GIMP domain `l`; `None` if its stencil
 /// leaves the stored nodes.
 #[inline]
-pub(super) fn axis_factors<const D: usize>(
+pub(crate) fn axis_factors<const D: usize>(
     grid: &GridNd<D>,
     shape: ShapeNd,
     strides: &[usize; D],
@@ -60,7 +60,7 @@ pub(super) fn axis_factors<const D: usize>(
 
 /// [`axis_factors`] of shape `S`, inlined into a pass compiled for it.
 #[inline(always)]
-pub(super) fn axis_factors_as<const D: usize, S: AxisShape>(
+pub(crate) fn axis_factors_as<const D: usize, S: AxisShape>(
     grid: &GridNd<D>,
     strides: &[usize; D],
     x: &Vector<D>,
@@ -117,7 +117,7 @@ pub(super) type NodalCompletion<'a, const D: usize> =
 /// stored nodes past a fixed wall; formed weights only), which then added nothing: the
 /// check costs no pass of its own.
 #[allow(clippy::too_many_arguments)]
-pub(super) fn particle_to_grid<const D: usize>(
+pub(crate) fn particle_to_grid<const D: usize>(
     weights: &ViewWeightsNd<'_, D>,
     mass: &[f64],
     volume0: &[f64],
@@ -202,7 +202,7 @@ pub(super) fn finish_nodal<const D: usize>(
 
 /// [`finish_nodal`], on `pool` in ranges of nodes where given (each node's values are its
 /// own: the same bits on any number of threads).
-pub(super) fn finish_nodal_on<const D: usize>(
+pub(crate) fn finish_nodal_on<const D: usize>(
     pool: Option<&rayon::ThreadPool>,
     (node_mass, node_v, node_a, active): (
         &mut Vec<f64>,

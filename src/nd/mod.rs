@@ -8,47 +8,27 @@
 pub mod factor_metric;
 pub mod factors;
 pub mod fields;
-#[cfg(feature = "reference")]
-mod fused;
 mod grid;
-mod kernels;
-#[cfg(feature = "reference")]
-mod material;
-#[cfg(feature = "reference")]
-mod migration;
-#[cfg(feature = "reference")]
-mod particles;
-#[cfg(feature = "reference")]
-pub mod problems;
-#[cfg(feature = "reference")]
-pub mod scenario;
-mod shape;
-#[cfg(feature = "reference")]
-mod slab;
-#[cfg(feature = "reference")]
-mod solver;
-#[cfg(feature = "reference")]
-mod threaded;
-#[cfg(feature = "reference")]
-mod update;
+pub(crate) mod kernels;
+pub(crate) mod shape;
 mod view;
 mod view_weights;
 mod weights;
 
 pub use fields::INACTIVE_MASS_RATIO;
 pub use grid::GridNd;
-#[cfg(feature = "reference")]
-pub use material::MaterialNd;
-#[cfg(feature = "reference")]
-pub use particles::{ParticlesNd, SetupNdError};
 pub use shape::{AxisStencil, ShapeNd};
-#[cfg(feature = "reference")]
-pub use slab::MIN_CELLS as MIN_SLAB_CELLS;
-#[cfg(feature = "reference")]
-pub use solver::{SolverNd, ThreadsError};
 pub use view::{NodalHalo, SplitNd, SummaryNd, ViewNd};
 pub use view_weights::ViewWeightsNd;
 pub use weights::{WeightsNd, WeightsNdError};
+
+// The 2D/3D reference solver, its scenarios and exact problems live in the test bench
+// (`src/testbench/nd/`); their public paths stay here.
+#[cfg(feature = "reference")]
+pub use crate::testbench::nd::{
+    problems, scenario, MaterialNd, ParticlesNd, SetupNdError, SolverNd, ThreadsError,
+    MIN_SLAB_CELLS,
+};
 
 use nalgebra::{SMatrix, SVector};
 

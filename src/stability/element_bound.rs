@@ -1,7 +1,7 @@
 //! The 1D element bound `B = max_p (E_t,p V_p/m_p) Σ_i D_ip²/S_ip ≥ λmax(C)` of a state
 //! (the element eigenvalue inequality with particles as elements; its derivation and the
-//! one-division form are in the 1D reference solver's `mpm/element_bound.rs`, which takes
-//! the same value in its pass, bit for bit).
+//! one-division form are in the 1D reference solver's `testbench/mpm/element_bound.rs`,
+//! which takes the same value in its pass, bit for bit).
 //!
 //! The certified tracker serving on the bound ([`super::CertifiedConfig::on_bound`]) reads
 //! it from the stepper's summary ([`crate::PassSummary::element_bound`]); for a view without

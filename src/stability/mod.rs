@@ -64,10 +64,7 @@ pub mod bound58;
 pub mod certificate;
 pub mod certified;
 pub(crate) mod element_bound;
-#[cfg(feature = "reference")]
-pub mod empirical;
-
-mod error;
+pub(crate) mod error;
 pub mod full_map;
 pub mod lambda_max;
 pub mod limit;
@@ -88,6 +85,10 @@ pub use nodal::NodalOperator;
 
 pub use crate::sound_speed::{SoundSpeed, SoundSpeedConfig};
 pub use bound58::{bound58, Bound58, Bound58Reading};
+// The empirical critical step runs the 1D reference solver: it lives in the test bench
+// (`src/testbench/stability/empirical.rs`); its public path stays here.
+#[cfg(feature = "reference")]
+pub use crate::testbench::stability::empirical;
 #[cfg(feature = "reference")]
 pub use empirical::{
     scan_monotone, EmpiricalConfig, EmpiricalCritical, MonotoneScan, Protocol, RunOutcome,

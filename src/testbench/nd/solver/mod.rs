@@ -2,7 +2,7 @@
 //!
 //! One step from a committed state whose nodal fields are known (docs/design.md, "The
 //! USL step in d dimensions"): `v_iⁿ⁺¹ = v_i + dt a_i`; grid → particle
-//! ([`super::kernels`]); then, at the new positions, the particle → grid pass that the
+//! ([`crate::nd::kernels`]); then, at the new positions, the particle → grid pass that the
 //! *next* step starts from. A step therefore costs one particle → grid and one grid →
 //! particle pass, and every state — committed or trial — carries the nodal fields of its
 //! own particle positions, as the [`ViewNd`] promises. No state stores its weights: every
@@ -45,20 +45,19 @@ mod trial;
 
 pub use threads::ThreadsError;
 
-use super::kernels;
 use super::particles::SetupNdError;
 use super::slab::SlabNd;
-use super::{
-    GridNd, MaterialNd, ShapeNd, SplitNd, SummaryNd, Tensor, Vector, ViewNd, ViewWeightsNd,
-};
+use super::MaterialNd;
 use crate::dimension::{Dim, Dimension, StateView};
-use crate::nd::threaded::ThreadScratch;
+use crate::nd::kernels;
+use crate::nd::{GridNd, ShapeNd, SplitNd, SummaryNd, Tensor, Vector, ViewNd, ViewWeightsNd};
 use crate::reduce::Reduce;
 use crate::stepper::{StepError, Stepper};
+use crate::testbench::nd::threaded::ThreadScratch;
 use std::rc::Rc;
 use std::sync::Arc;
 
-pub use super::fields::INACTIVE_MASS_RATIO;
+pub use crate::nd::fields::INACTIVE_MASS_RATIO;
 
 /// The fields of the particles that a step does not change. They travel with the
 /// particles between processes ([`SolverNd::new_slab`]); a state shares them with the

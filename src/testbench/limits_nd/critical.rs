@@ -3,7 +3,7 @@
 //!
 //! * `dt_sound = min_a h_a / max_p c_p` — the speed-of-sound step at rest;
 //! * `lambda_max_nodal = λmax(M⁻¹K)` by Lanczos run to a relative residual of `1e-10`
-//!   ([`super::stiffness`]) and, on small problems, checked against the dense symmetric
+//!   ([`crate::limits_nd::stiffness`]) and, on small problems, checked against the dense symmetric
 //!   eigenvalues; `dt_eq56 = √(2/λmax)`;
 //! * `dt_empirical` — bisection on real runs of the reference solver: from
 //!   `v = A c_p sin(2π x_0/L_0) e_0` plus seeded noise `10⁻⁶ A` on every component of `v`
@@ -12,16 +12,16 @@
 //!   [`EMPIRICAL_LIMIT`] particle–node pairs).
 //!
 //! * `dt_full_map` — the frozen-particle critical step of the whole linearised step,
-//!   velocity and stress, reduced to the nodes ([`super::nodal_full_map`],
+//!   velocity and stress, reduced to the nodes ([`crate::limits_nd::nodal_full_map`],
 //!   [`crate::stability::nodal_full_map`]): one symmetric eigenvalue found by Lanczos, on
 //!   layouts of up to [`NODAL_FULL_MAP_LIMIT`] nodal unknowns;
-//! * `dt_full_map_dense` — the same from the dense map ([`super::full_map`]), its
-//!   cross-check, on layouts of at most [`super::full_map::FULL_MAP_LIMIT`] particle
+//! * `dt_full_map_dense` — the same from the dense map ([`crate::limits_nd::full_map`]), its
+//!   cross-check, on layouts of at most [`crate::limits_nd::full_map::FULL_MAP_LIMIT`] particle
 //!   unknowns (`None` above, or when its search brackets no critical step).
 
-use super::stiffness::dense_lambda_max;
-pub use super::stiffness::lambda_max;
 use crate::dimension::{Dim, Dimension};
+use crate::limits_nd::stiffness::dense_lambda_max;
+pub use crate::limits_nd::stiffness::lambda_max;
 use crate::nd::{SolverNd, Tensor, Vector, ViewNd};
 use crate::stepper::Stepper;
 use serde::Serialize;
@@ -100,12 +100,12 @@ where
         lambda_max_dense: dense,
         dt_eq56: (2.0 / lambda).sqrt(),
         dt_full_map: alone
-            .then(|| super::nodal_full_map::critical_dt_nodal(&view))
+            .then(|| crate::limits_nd::nodal_full_map::critical_dt_nodal(&view))
             .flatten()
             .filter(|c| c.converged)
             .map(|c| c.dt),
         dt_full_map_dense: alone
-            .then(|| super::full_map::critical_dt(&view, (2.0 / lambda).sqrt()))
+            .then(|| crate::limits_nd::full_map::critical_dt(&view, (2.0 / lambda).sqrt()))
             .flatten()
             .and_then(Result::ok),
         dt_empirical,

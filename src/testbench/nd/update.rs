@@ -1,10 +1,11 @@
 //! The reference solver's own kernels in d dimensions: the grid → particle update (each
 //! particle's new velocity, deformation gradient, stress and position from the grid's
 //! updated fields) and the nodal sums of a run split over processes (the library's own
-//! kernels — weights, particle → grid — are in [`super::kernels`]).
+//! kernels — weights, particle → grid — are in [`crate::nd::kernels`]).
 
-use super::{GridNd, MaterialNd, SummaryNd, Tensor, Vector, ViewWeightsNd};
+use super::MaterialNd;
 use crate::grid::Boundary;
+use crate::nd::{GridNd, SummaryNd, Tensor, Vector, ViewWeightsNd};
 use crate::reduce::Reduce;
 
 /// Where a particle's update failed.
@@ -161,7 +162,7 @@ pub(super) fn update_particle<const D: usize>(
             return Err(ParticleFault::NonFinite(name, p));
         }
     }
-    let j = super::det(&f);
+    let j = crate::nd::det(&f);
     if j <= 0.0 {
         return Err(ParticleFault::Inverted(p, j));
     }

@@ -1,5 +1,5 @@
 //! The reference solver on threads: [`SolverNd::set_threads`] (the threaded step itself
-//! is `crate::nd::threaded`).
+//! is `crate::testbench::nd::threaded`).
 
 use super::SolverNd;
 use std::sync::Arc;

@@ -7,7 +7,8 @@
 
 use super::slab::SlabNd;
 use super::solver::{CarriedNd, StateNd};
-use super::{MaterialNd, Tensor, Vector};
+use super::MaterialNd;
+use crate::nd::{Tensor, Vector};
 use std::rc::Rc;
 
 /// Hands the particles of the trial `s` that left `slab` to the neighbours and takes in

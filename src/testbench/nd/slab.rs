@@ -36,8 +36,9 @@
 //! Both are two shifts ([`crate::reduce::Reduce::exchange`]): to the upper neighbour and
 //! from the lower one, then the reverse.
 
-use super::{GridNd, NodalHalo, SetupNdError, Vector};
+use super::SetupNdError;
 use crate::grid::Boundary;
+use crate::nd::{GridNd, NodalHalo, Vector};
 use crate::reduce::Reduce;
 use std::ops::Range;
 use std::rc::Rc;

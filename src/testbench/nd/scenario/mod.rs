@@ -27,10 +27,11 @@
 //! [`ScenarioNdError`]s naming the field.
 
 use super::problems::{PlaneWave, PlaneWaveError};
-use super::{GridNd, MaterialNd, ParticlesNd, SetupNdError, ShapeNd, SolverNd, Vector};
+use super::{MaterialNd, ParticlesNd, SetupNdError, SolverNd};
 use crate::controller::ControllerConfig;
 use crate::fmt_num::Num;
 use crate::grid::Boundary;
+use crate::nd::{GridNd, ShapeNd, Vector};
 use crate::reduce::Reduce;
 use serde::{Deserialize, Serialize};
 use std::rc::Rc;

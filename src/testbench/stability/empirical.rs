@@ -16,7 +16,7 @@
 //!
 //! Bisection on `dt` between a stable and an unstable step then locates the critical step to
 //! the relative tolerance `rel_tol`. With the small amplitude `A = 10⁻⁴` the particles barely
-//! move and the result approaches the frozen-particle limit of [`super::full_map`] (an
+//! move and the result approaches the frozen-particle limit of [`crate::stability::full_map`] (an
 //! instability growing from the noise level `10⁻⁶` to 10× the energy in 4000 steps needs
 //! `|λ| − 1 ≳ 4·10⁻³`, i.e. `dt` only about `10⁻⁵` above the frozen limit); with `A = 10⁻²`
 //! the particles move and the critical step can be lower (weights change every step).
@@ -24,10 +24,10 @@
 //! The pseudo-random noise is a seeded splitmix64 stream (the library does not depend on
 //! `rand`); the same seed gives the same runs.
 
-use super::error::{check_dt, StabilityError};
 use crate::grid::Grid;
 use crate::mpm::{Material, ParticleInit, ReferenceStepper};
 use crate::shape::Shape;
+use crate::stability::error::{check_dt, StabilityError};
 use crate::stepper::Stepper;
 
 /// Settings of the empirical protocol.

@@ -14,7 +14,7 @@
 //! `F = J^{1/d} I`, `λ_t = λ/J`, `μ_t = (μ − λ ln J)/J` (equal to `λ, μ` at rest). Under
 //! shear the true tangent is anisotropic; this is its small-strain value.
 
-use super::Tensor;
+use crate::nd::Tensor;
 use serde::{Deserialize, Serialize};
 
 /// An elastic material of the d-dimensional reference solver.
@@ -97,7 +97,7 @@ impl MaterialNd {
                     + (Tensor::<D>::identity() * (lambda * eps.trace()) + eps * (2.0 * mu)) * dt
             }
             MaterialNd::NeoHookean { .. } => {
-                let j = super::det(f_new);
+                let j = crate::nd::det(f_new);
                 (f_new * f_new.transpose() - Tensor::<D>::identity()) * (mu / j)
                     + Tensor::<D>::identity() * (lambda * j.ln() / j)
             }
@@ -108,7 +108,7 @@ impl MaterialNd {
     /// `sigma`: `det(F) V⁰ · ½ σ:C⁻¹:σ` (linear; `C⁻¹σ = (σ − λ tr σ/(2μ + dλ) I)/(2μ)`)
     /// or `V⁰ W(F)` (neo-Hookean).
     pub fn energy<const D: usize>(&self, sigma: &Tensor<D>, f: &Tensor<D>, v0: f64) -> f64 {
-        let j = super::det(f);
+        let j = crate::nd::det(f);
         match *self {
             MaterialNd::LinearElastic {
                 youngs_modulus: e,

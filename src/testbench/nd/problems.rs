@@ -15,8 +15,9 @@
 //! `−ρ A c ω sin(K·x) sin(ωt) d̂` in both cases. At `t = 0`: `v = A c sin(K·x) d̂`, `σ = 0`,
 //! `F = I` (docs/design.md's `plane_wave` initial condition).
 
-use super::{GridNd, MaterialNd, Tensor, Vector};
+use super::MaterialNd;
 use crate::grid::Boundary;
+use crate::nd::{GridNd, Tensor, Vector};
 
 /// Which kind of plane wave.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -145,7 +146,7 @@ impl<const D: usize> PlaneWave<D> {
 
     /// The velocity error of a state against this wave, relative to its velocity
     /// amplitude: `max_p |v_p − v(x_p, t)|∞ / (|A| c)`.
-    pub fn velocity_error(&self, view: &super::ViewNd<'_, D>) -> f64 {
+    pub fn velocity_error(&self, view: &crate::nd::ViewNd<'_, D>) -> f64 {
         let scale = self.amplitude.abs() * self.speed;
         (0..view.n_particles())
             .map(|p| (view.v[p] - self.velocity(&view.x[p], view.t)).amax() / scale)

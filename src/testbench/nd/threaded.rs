@@ -26,13 +26,13 @@
 //! threaded run differs from an unthreaded one by round-off. Cost: 8 bytes per particle
 //! (its slab and its place in the sorted order).
 
-use super::factor_metric::ParticleBounds;
-use super::factors::{visit_row_with, RowVisitor};
 use super::fused::{FusedInputs, FusedOutcome, Gather, NodalSums};
-use super::kernels::axis_factors_as;
-use super::shape::AxisShape;
 use super::update::{update_particle, Committed, ParticleFault, Written};
-use super::{GridNd, SummaryNd, Tensor, Vector};
+use crate::nd::factor_metric::ParticleBounds;
+use crate::nd::factors::{visit_row_with, RowVisitor};
+use crate::nd::kernels::axis_factors_as;
+use crate::nd::shape::AxisShape;
+use crate::nd::{GridNd, SummaryNd, Tensor, Vector};
 use rayon::prelude::*;
 use sort::sort_by_slab;
 
@@ -442,7 +442,7 @@ unsafe fn scatter_slab<const D: usize, S: AxisShape>(
         let (mp, vol0) = (inputs.mass[p], inputs.volume0[p]);
         let (x, v, f, sigma) = (&into.x[p], &into.v[p], &into.f[p], &into.sigma[p]);
         let factors = axis_factors_as::<D, S>(grid, &strides, x, &inputs.domain[p]);
-        let vol = super::det(f) * vol0;
+        let vol = crate::nd::det(f) * vol0;
         if let Some(b) = bounds.as_mut() {
             let moduli = match (&into.moduli, inputs.constant_moduli) {
                 (Some((lambda, mu)), _) => (lambda[p], mu[p]),

@@ -10,13 +10,14 @@
 //! [`kernels::particle_to_grid`]. A run whose particles move between processes between the
 //! two passes (a grid split into slabs) cannot fuse them and takes the two passes.
 
-use super::factor_metric::ParticleBounds;
-use super::factors::{visit_row_with, RowVisitor};
-use super::kernels::axis_factors_as;
-use super::shape::{AxisShape, BSplineAxis, GimpAxis, LinearAxis};
 use super::threaded::{threaded_step, ThreadScratch};
 use super::update::{self, Committed, ParticleFault, Written};
-use super::{GridNd, MaterialNd, ShapeNd, SummaryNd, Tensor, Vector};
+use super::MaterialNd;
+use crate::nd::factor_metric::ParticleBounds;
+use crate::nd::factors::{visit_row_with, RowVisitor};
+use crate::nd::kernels::axis_factors_as;
+use crate::nd::shape::{AxisShape, BSplineAxis, GimpAxis, LinearAxis};
+use crate::nd::{GridNd, ShapeNd, SummaryNd, Tensor, Vector};
 
 /// What a fused step reads besides the committed particles.
 pub(super) struct FusedInputs<'a, const D: usize> {
@@ -205,7 +206,7 @@ fn fused_step_as<const D: usize, S: AxisShape>(
         // Particle → grid at the new position, as `kernels::particle_to_grid` adds it.
         let factors = axis_factors_as::<D, S>(grid, &strides, &u.x, domain);
         let mv = u.v * mp;
-        let vol = super::det(&u.f) * vol0;
+        let vol = crate::nd::det(&u.f) * vol0;
         let vs = u.sigma * (-vol);
         if let Some(b) = bounds.as_deref_mut() {
             b.add_values(

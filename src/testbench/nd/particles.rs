@@ -1,8 +1,9 @@
 //! The particles a d-dimensional solver starts from, and why a set of them is refused.
 
-use super::{GridNd, MaterialNd, ShapeNd, Vector};
+use super::MaterialNd;
 use crate::fmt_num::Num;
 use crate::grid::Boundary;
+use crate::nd::{GridNd, ShapeNd, Vector};
 
 /// Initial particle fields of a d-dimensional run. All vectors have one entry per particle.
 #[derive(Clone, Debug, PartialEq)]

@@ -2,11 +2,11 @@
 //! grid.
 
 use super::{CarriedNd, ModuliNd, SolverNd, Split, StateNd, INACTIVE_MASS_RATIO};
-use crate::nd::particles::{ParticlesNd, SetupNdError};
-use crate::nd::slab::SlabNd;
-use crate::nd::threaded::ThreadScratch;
 use crate::nd::{GridNd, MaterialNd, ShapeNd, Tensor, Vector};
 use crate::reduce::Reduce;
+use crate::testbench::nd::particles::{ParticlesNd, SetupNdError};
+use crate::testbench::nd::slab::SlabNd;
+use crate::testbench::nd::threaded::ThreadScratch;
 use std::rc::Rc;
 
 impl<const D: usize> SolverNd<D> {

@@ -2,12 +2,12 @@
 
 use super::{SolverNd, StateNd};
 use crate::nd::factor_metric::ParticleBounds;
-use crate::nd::fused::{fused_step, FusedInputs, NodalSums};
 use crate::nd::kernels;
-use crate::nd::threaded::ThreadScratch;
-use crate::nd::update::{self, Committed, ParticleFault, Written};
 use crate::nd::{SummaryNd, Tensor, Vector, ViewWeightsNd};
 use crate::stepper::StepError;
+use crate::testbench::nd::fused::{fused_step, FusedInputs, NodalSums};
+use crate::testbench::nd::threaded::ThreadScratch;
+use crate::testbench::nd::update::{self, Committed, ParticleFault, Written};
 use std::rc::Rc;
 
 impl<const D: usize> SolverNd<D> {
@@ -74,7 +74,7 @@ impl<const D: usize> SolverNd<D> {
     }
 
     /// Grid → particle into `trial`, then the particle → grid pass at the new positions,
-    /// in one pass over the particles ([`crate::nd::fused`]): the trial's totals (or the
+    /// in one pass over the particles ([`crate::testbench::nd::fused`]): the trial's totals (or the
     /// error of its first failed particle) and its derived state's
     /// [`SolverNd::derive_state`] result.
     fn fused_trial(
@@ -192,7 +192,7 @@ impl<const D: usize> SolverNd<D> {
         );
         let mut result = fault.map_err(|f| self.step_error(f, dt));
         if let Some(slab) = self.split.slab() {
-            let moved = crate::nd::migration::migrate(slab, trial, result.is_err());
+            let moved = crate::testbench::nd::migration::migrate(slab, trial, result.is_err());
             if let (Ok(_), Err(index)) = (&result, moved) {
                 // It jumped past the neighbouring slab: a blow-up, as leaving the box is.
                 result = Err(StepError::OutOfDomain {
