@@ -96,6 +96,11 @@ pub const LOOK_MARGIN: f64 = 1.2;
 use crate::nd::ViewNd;
 use crate::reduce::Reduce;
 
+/// Whether the stepper supplies the element bound from its own pass ([`crate::nd::SummaryNd`]).
+pub(crate) fn view_supplies_bound<const D: usize>(view: &ViewNd<'_, D>) -> bool {
+    view.summary.is_some_and(|s| s.element_bound.is_some())
+}
+
 /// State of the policy (module docs).
 #[derive(Clone, Debug, Default)]
 pub struct BoundTracking {

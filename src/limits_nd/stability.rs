@@ -80,7 +80,7 @@ mod full_map_gain;
 mod guard;
 mod guard_scan;
 
-use super::bound_tracking::BoundTracking;
+use super::bound_tracking::{view_supplies_bound, BoundTracking};
 use super::stability_config::StabilityNdConfig;
 use super::start::checkerboard_start;
 use super::stiffness::{diagonal_argmax, lanczos_on, NodalSpace};
@@ -145,8 +145,7 @@ pub struct StabilityNd<const D: usize> {
 }
 
 impl<const D: usize> StabilityNd<D> {
-    /// A limit with `config`, checked ([`StabilityNdConfig::validate`]: a field out of its
-    /// range is a [`ConfigError`] naming it).
+    /// A limit with `config`, checked ([`StabilityNdConfig::validate`]: a [`ConfigError`]).
     pub fn new(config: StabilityNdConfig) -> Result<Self, ConfigError> {
         config.validate()?;
         Ok(Self::unchecked(config))
@@ -451,13 +450,6 @@ impl<const D: usize> StabilityNd<D> {
         }
         metrics
     }
-}
-
-/// Whether the stepper supplies the element bound from its own pass ([`SummaryNd`]).
-///
-/// [`SummaryNd`]: crate::nd::SummaryNd
-fn view_supplies_bound<const D: usize>(view: &ViewNd<'_, D>) -> bool {
-    view.summary.is_some_and(|s| s.element_bound.is_some())
 }
 
 impl<const D: usize> StepLimit<D> for StabilityNd<D>
