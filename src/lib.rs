@@ -36,6 +36,8 @@
 //! * [`limits_nd`] — the 2D/3D limits; [`temporal`] — what the temporal-error limits of
 //!   every dimension share (settings, deferral, the weights' field scales);
 //!   [`sound_speed`] — the speed-of-sound limit, one for every dimension.
+//! * [`tangent`] — the tangent Lamé moduli a 2D/3D view reports, for hyperelastic models
+//!   (neo-Hookean exact, fixed corotated a guaranteed bound).
 //! * [`controller`] — the adaptive controller combining the limits
 //!   ([`controller::Controller::standard`] builds the paper's three plus a growth monitor,
 //!   in any dimension).
@@ -127,6 +129,7 @@ pub mod stability;
 mod stencil;
 pub mod stepper;
 pub mod synchronized_velocity;
+pub mod tangent;
 pub mod temporal;
 #[cfg(feature = "reference")]
 pub mod testbench;

@@ -11,6 +11,21 @@ use super::{GridNd, Tensor, Vector, ViewWeightsNd};
 /// by `dt (λ_t tr(δε̇) I + 2 μ_t δε̇)`, `δε̇ = sym(δL)`. For hypoelastic linear elasticity
 /// they are the material's `λ`, `μ`; a solver whose tangent is anisotropic reports an
 /// isotropic pair that bounds its P-wave modulus `λ_t + 2μ_t` from above.
+///
+/// For hyperelastic models [`crate::tangent`] computes the pair from `F`: exact for
+/// neo-Hookean, a guaranteed bound for fixed corotated (Stomakhin et al. 2012):
+///
+/// ```
+/// use mpm_dt::nd::Tensor;
+/// let (lambda, mu) = (10.0, 1.0); // the material's small-strain Lamé parameters
+/// let f = [Tensor::<2>::identity(), Tensor::<2>::new(1.2, 0.1, 0.0, 0.9)];
+/// let (lame_lambda, lame_mu): (Vec<f64>, Vec<f64>) = f
+///     .iter()
+///     .map(|f| mpm_dt::tangent::fixed_corotated(lambda, mu, f))
+///     .unzip();
+/// assert_eq!((lame_lambda[0], lame_mu[0]), (lambda, mu)); // at rest, the material's pair
+/// assert!(lame_lambda[1] + 2.0 * lame_mu[1] > lambda + 2.0 * mu);
+/// ```
 #[derive(Clone, Copy, Debug)]
 pub struct ViewNd<'a, const D: usize> {
     /// Time `t` of this state.
@@ -31,7 +46,8 @@ pub struct ViewNd<'a, const D: usize> {
     pub volume0: &'a [f64],
     /// Particle masses `m_p`.
     pub mass: &'a [f64],
-    /// Tangent Lamé modulus `λ_t` per particle.
+    /// Tangent Lamé modulus `λ_t` per particle (for hyperelastic models see
+    /// [`crate::tangent`]).
     pub lame_lambda: &'a [f64],
     /// Tangent shear modulus `μ_t` per particle.
     pub lame_mu: &'a [f64],
