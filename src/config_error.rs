@@ -51,12 +51,65 @@ pub enum ConfigError {
         /// The run's dimension.
         dim: usize,
     },
-    /// The JSON could not be parsed into a config.
+    /// The JSON could not be parsed into a config, or a limit refused a setting in a way
+    /// no other variant describes.
     #[error("controller config: {message}")]
     Parse {
-        /// The serde message (names the unknown or mistyped field).
+        /// The message (for JSON, serde's: it names the unknown or mistyped field).
         message: String,
+        /// The JSON reader's error, kept with its line and column, when the text or value
+        /// could not be read ([`JsonError::get`]).
+        #[source]
+        source: Option<JsonError>,
     },
+}
+
+impl ConfigError {
+    /// The error of a JSON text or value that could not be read into a config.
+    pub(crate) fn json(e: serde_json::Error) -> Self {
+        Self::Parse {
+            message: e.to_string(),
+            source: Some(JsonError::from(e)),
+        }
+    }
+}
+
+/// A JSON reader's error (`serde_json::Error`) kept as the source of the library's errors
+/// ([`ConfigError::Parse`], [`crate::limit::LimitError::Restore`]), shared so that they stay
+/// `Clone`; two are equal when their messages are (line and column included).
+#[derive(Clone, Debug)]
+pub struct JsonError(std::sync::Arc<serde_json::Error>);
+
+impl JsonError {
+    /// The reader's error: its line, column and category
+    /// ([`serde_json::Error::line`], [`serde_json::Error::classify`]).
+    pub fn get(&self) -> &serde_json::Error {
+        &self.0
+    }
+}
+
+impl From<serde_json::Error> for JsonError {
+    fn from(e: serde_json::Error) -> Self {
+        Self(std::sync::Arc::new(e))
+    }
+}
+
+impl std::fmt::Display for JsonError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        self.0.fmt(f)
+    }
+}
+
+impl std::error::Error for JsonError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        self.0.source()
+    }
+}
+
+impl PartialEq for JsonError {
+    fn eq(&self, other: &Self) -> bool {
+        std::sync::Arc::ptr_eq(&self.0, &other.0) || self.0.to_string() == other.0.to_string()
+    }
 }
 
 pub(crate) fn check(

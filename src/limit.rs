@@ -149,6 +149,23 @@ pub enum LimitError {
         /// Time of the state.
         t: f64,
     },
+    /// The limit refuses one of its settings.
+    #[error("limit {limit}: {source}")]
+    Config {
+        /// The limit's name.
+        limit: String,
+        /// The setting and why.
+        source: crate::config_error::ConfigError,
+    },
+    /// A checkpoint's state for the limit could not be read back
+    /// ([`StepLimit::restore_state`]).
+    #[error("limit {limit}: cannot restore state: {source}")]
+    Restore {
+        /// The limit's name.
+        limit: String,
+        /// The JSON reader's error.
+        source: crate::config_error::JsonError,
+    },
     /// Anything else, described.
     #[error("limit {limit}: {message}")]
     Other {

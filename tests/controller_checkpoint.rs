@@ -68,6 +68,37 @@ fn restore_rejects_mismatched_limits() {
     assert!(Controller::restore(cp, wrong).is_err());
 }
 
+/// A limit's saved state that does not read back ends the restore with the JSON reader's
+/// error kept as the source, through the limit's error to the controller's.
+#[test]
+fn unreadable_limit_state_keeps_its_source() {
+    use mpm_dt::controller::ControllerError;
+    use mpm_dt::limit::LimitError;
+    use std::error::Error;
+    let mut config = ControllerConfig::default();
+    config.temporal.rtol = 1e-4;
+    let mut s = MockStepper::standing_wave(16, 2, 1.0, 1e-2, Shape::Gimp, 0.3, 9);
+    let mut c = Controller::new(config.clone(), limits(&config)).unwrap();
+    c.run_until(&mut s, 0.05, &mut |_| {}).unwrap();
+    for (k, name) in [(1, "temporal_error"), (2, "growth")] {
+        let mut cp = c.checkpoint();
+        assert_eq!(cp.limits[k].name, name);
+        cp.limits[k].state = Some(serde_json::json!({"not": "a saved state"}));
+        let err = Controller::restore(cp, limits(&config)).unwrap_err();
+        let ControllerError::Restore {
+            source: Some(LimitError::Restore { limit, source }),
+            ..
+        } = &err
+        else {
+            panic!("{err:?}");
+        };
+        assert_eq!(limit, name);
+        assert!(source.get().is_data(), "{source}");
+        let chain = err.source().and_then(|e| e.source()).map(|e| e.to_string());
+        assert_eq!(chain, Some(source.to_string()), "{err}");
+    }
+}
+
 #[test]
 fn reference_stepper_restart_is_bit_identical() {
     use mpm_dt::mpm::{ReferenceStepper, SolverCheckpoint};

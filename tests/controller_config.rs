@@ -77,9 +77,21 @@ fn invalid_values_name_their_field() {
     ));
     let err = ControllerConfig::from_json(r#"{"saftey": 0.5}"#).unwrap_err();
     assert!(
-        matches!(&err, ConfigError::Parse { message } if message.contains("saftey")),
+        matches!(&err, ConfigError::Parse { message, .. } if message.contains("saftey")),
         "{err}"
     );
+    // The JSON reader's error is kept as the source, with its line and column.
+    let err = ControllerConfig::from_json("{\n  \"safety\": 0.5,,\n}").unwrap_err();
+    let ConfigError::Parse {
+        source: Some(json), ..
+    } = &err
+    else {
+        panic!("{err:?}");
+    };
+    assert!(json.get().is_syntax(), "{json}");
+    assert_eq!(json.get().line(), 2, "{json}");
+    let source = std::error::Error::source(&err).map(|e| e.to_string());
+    assert_eq!(source, Some(json.to_string()));
 }
 
 #[test]

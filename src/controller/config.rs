@@ -153,18 +153,14 @@ impl Default for ControllerConfig {
 impl ControllerConfig {
     /// Parses a config from JSON (unknown fields are errors) and validates it.
     pub fn from_json(json: &str) -> Result<Self, ConfigError> {
-        let config: Self = serde_json::from_str(json).map_err(|e| ConfigError::Parse {
-            message: e.to_string(),
-        })?;
+        let config: Self = serde_json::from_str(json).map_err(ConfigError::json)?;
         config.validate()?;
         Ok(config)
     }
 
     /// Parses a config from a JSON value (the `controller` field of a scenario).
     pub fn from_value(value: serde_json::Value) -> Result<Self, ConfigError> {
-        let config: Self = serde_json::from_value(value).map_err(|e| ConfigError::Parse {
-            message: e.to_string(),
-        })?;
+        let config: Self = serde_json::from_value(value).map_err(ConfigError::json)?;
         config.validate()?;
         Ok(config)
     }
@@ -276,6 +272,7 @@ impl ControllerConfig {
             },
             other => ConfigError::Parse {
                 message: format!("{prefix}: {other}"),
+                source: None,
             },
         };
         let mut nd = self.stability_nd.clone();

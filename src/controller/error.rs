@@ -149,5 +149,8 @@ pub enum ControllerError {
     Restore {
         /// What does not fit.
         message: String,
+        /// The limit's error, when a limit could not read its saved state back.
+        #[source]
+        source: Option<LimitError>,
     },
 }

@@ -431,9 +431,9 @@ impl StepLimit for GrowthMonitor {
     }
 
     fn restore_state(&mut self, state: &serde_json::Value) -> Result<(), LimitError> {
-        self.state = serde_json::from_value(state.clone()).map_err(|e| LimitError::Other {
+        self.state = serde_json::from_value(state.clone()).map_err(|e| LimitError::Restore {
             limit: GROWTH.to_string(),
-            message: format!("cannot restore state: {e}"),
+            source: e.into(),
         })?;
         Ok(())
     }

@@ -247,12 +247,14 @@ where
                     checkpoint.limits.len(),
                     limits.len()
                 ),
+                source: None,
             });
         }
         for (limit, saved) in limits.iter_mut().zip(&checkpoint.limits) {
             if limit.name() != saved.name {
                 return Err(ControllerError::Restore {
                     message: format!("expected limit {}, got {}", saved.name, limit.name()),
+                    source: None,
                 });
             }
             if let Some(s) = &saved.state {
@@ -260,6 +262,7 @@ where
                     .restore_state(s)
                     .map_err(|e| ControllerError::Restore {
                         message: e.to_string(),
+                        source: Some(e),
                     })?;
             }
         }

@@ -46,6 +46,7 @@ pub trait StandardLimits<const D: usize> {
 fn invalid(e: impl std::fmt::Display) -> ConfigError {
     ConfigError::Parse {
         message: e.to_string(),
+        source: None,
     }
 }
 

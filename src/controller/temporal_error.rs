@@ -434,8 +434,11 @@ impl StepLimit for TemporalError {
     }
 
     fn restore_state(&mut self, state: &serde_json::Value) -> Result<(), LimitError> {
-        let history: Option<History> = serde_json::from_value(state.clone())
-            .map_err(|e| Self::other(format!("cannot restore state: {e}")))?;
+        let history: Option<History> =
+            serde_json::from_value(state.clone()).map_err(|e| LimitError::Restore {
+                limit: TEMPORAL_ERROR.to_string(),
+                source: e.into(),
+            })?;
         let consistent = |h: &History| {
             h.accel.len() == h.stress_rate.len()
                 && h.dt.is_finite()

@@ -213,7 +213,10 @@ impl<const D: usize> TemporalErrorNd<D> {
     fn supported(&self) -> Result<(), LimitError> {
         self.config
             .validate()
-            .map_err(|e| Self::other(e.to_string()))?;
+            .map_err(|source| LimitError::Config {
+                limit: TEMPORAL_ERROR.to_string(),
+                source,
+            })?;
         match self.config.balance {
             Some(_) => Err(Self::other(
                 "temporal.balance (eq 44's spatial error) is 1D only".to_string(),
@@ -377,8 +380,11 @@ where
     }
 
     fn restore_state(&mut self, state: &serde_json::Value) -> Result<(), LimitError> {
-        let history: Option<History<D>> = serde_json::from_value(state.clone())
-            .map_err(|e| Self::other(format!("cannot restore state: {e}")))?;
+        let history: Option<History<D>> =
+            serde_json::from_value(state.clone()).map_err(|e| LimitError::Restore {
+                limit: TEMPORAL_ERROR.to_string(),
+                source: e.into(),
+            })?;
         if history.as_ref().is_some_and(|h| !h.consistent()) {
             return Err(Self::other(
                 "cannot restore state: rates, ids and step do not belong together".to_string(),

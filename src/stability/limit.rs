@@ -360,9 +360,9 @@ impl StepLimit for Stability {
 
     fn restore_state(&mut self, state: &serde_json::Value) -> Result<(), LimitError> {
         let saved: SavedState =
-            serde_json::from_value(state.clone()).map_err(|e| LimitError::Other {
+            serde_json::from_value(state.clone()).map_err(|e| LimitError::Restore {
                 limit: "stability".into(),
-                message: format!("cannot restore state: {e}"),
+                source: e.into(),
             })?;
         check_safety(saved.safety).map_err(|e| e.into_limit_error("stability", f64::NAN))?;
         self.config.safety = saved.safety;
