@@ -70,7 +70,8 @@ fn run_rule(scene: Scene, rule: &dyn Fn(&MlsMpm) -> Result<f64, String>) -> Fixe
     let mut s = build(Scene {
         summary: false,
         ..scene
-    });
+    })
+    .without_views();
     let budget = energy_budget(&s);
     // Only the rule and the step are timed, as the controlled run's `Controller::step`: the
     // blow-up checks below are the harness's.

@@ -37,6 +37,25 @@ impl Model {
         }
     }
 
+    /// The isotropic tangent pair `(λ_t, μ_t)` the view reports for a particle at `F`, `J`
+    /// (`mpm_dt::nd::ViewNd::lame_lambda`): for the jelly the bound of
+    /// [`mpm_dt::tangent::fixed_corotated`] (its P-wave modulus `λ_t + 2μ_t` bounds the
+    /// acoustic tensor in every direction, initial stress included; `(λ, μ)` at rest; at
+    /// the mpm88 impact up to 1.25× the rest pair's P-wave modulus); for the fluid
+    /// `(E, 0)` at every `J`. The fluid's Cauchy stress `σ = s(J) I`, `s = E (J − 1)/J`,
+    /// moves by `δσ = (E/J) tr(δε) I` under a velocity-gradient perturbation, and its
+    /// acoustic tensor along `n` adds the initial stress `n·σn = s`: `E/J + E(J − 1)/J = E`
+    /// exactly, in compression and in tension (the transverse eigenvalue `s` is below it).
+    /// The elasticity tensor alone, `(E/J) I⊗I`, is larger in compression; the initial
+    /// stress, negative there, takes it back down.
+    pub fn tangent(&self, f: &Matrix2<f64>, _j: f64) -> (f64, f64) {
+        let (lambda, mu) = self.lame();
+        match self {
+            Model::Jelly { .. } => mpm_dt::tangent::fixed_corotated(lambda, mu, f),
+            Model::Fluid { .. } => (lambda, mu),
+        }
+    }
+
     /// Kirchhoff stress at deformation `F` with volume ratio `J`.
     pub fn kirchhoff(&self, f: &Matrix2<f64>, j: f64) -> Matrix2<f64> {
         let (lambda, mu) = self.lame();

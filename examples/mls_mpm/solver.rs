@@ -40,6 +40,9 @@ struct State {
     j: Vec<f64>,
     sigma: Vec<Matrix2<f64>>,
     density: Vec<f64>,
+    /// The tangent pair per particle ([`Model::tangent`]).
+    lame_lambda: Vec<f64>,
+    lame_mu: Vec<f64>,
     weights: WeightsNd<2>,
     node_mass: Vec<f64>,
     node_v: Vec<Vector2<f64>>,
@@ -61,6 +64,8 @@ impl State {
         self.j.resize(n, 0.0);
         self.sigma.resize(n, Matrix2::zeros());
         self.density.resize(n, 0.0);
+        self.lame_lambda.resize(n, 0.0);
+        self.lame_mu.resize(n, 0.0);
     }
 }
 
@@ -72,16 +77,25 @@ pub struct MlsMpm {
     gravity: Vector2<f64>,
     mass: Vec<f64>,
     volume0: Vec<f64>,
-    lame_lambda: Vec<f64>,
-    lame_mu: Vec<f64>,
     committed: State,
     trial: Option<State>,
     /// A state no longer needed (the last replaced or rejected one), whose arrays the next
     /// trial overwrites instead of cloning the committed state.
     spare: Option<State>,
-    /// Whether the views carry the pass's totals ([`SummaryNd`]: energies, finiteness,
-    /// the speed-of-sound step, the element bound) — the opt-in contract.
-    opt_in: bool,
+    /// What the pass forms for the views beyond the step itself.
+    handover: Handover,
+}
+
+/// What the particle → grid pass forms for the library beyond the step itself.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Handover {
+    /// Nothing: a run with no controller (the fixed-step baseline) reads no moduli.
+    Nothing,
+    /// The tangent pair per particle ([`Model::tangent`]): the generic path.
+    Moduli,
+    /// The moduli and the pass's totals ([`SummaryNd`]: energies, finiteness, the
+    /// speed-of-sound step, the element bound) — the opt-in contract.
+    Summary,
 }
 
 impl MlsMpm {
@@ -99,7 +113,6 @@ impl MlsMpm {
         let h = grid.h[0];
         let n = x.len();
         let vol = (0.5 * h).powi(2);
-        let (lambda, mu) = model.lame();
         let mut committed = State {
             t: 0.0,
             step: 0,
@@ -110,6 +123,8 @@ impl MlsMpm {
             j: vec![1.0; n],
             sigma: vec![Matrix2::zeros(); n],
             density: vec![density; n],
+            lame_lambda: vec![0.0; n],
+            lame_mu: vec![0.0; n],
             weights: WeightsNd::new(grid.n_nodes(), 9),
             node_mass: Vec::new(),
             node_v: Vec::new(),
@@ -126,7 +141,7 @@ impl MlsMpm {
             &mass,
             &volume0,
             &mut committed,
-            true,
+            Handover::Summary,
         );
         Self {
             grid,
@@ -135,19 +150,29 @@ impl MlsMpm {
             gravity,
             mass,
             volume0,
-            lame_lambda: vec![lambda; n],
-            lame_mu: vec![mu; n],
             committed,
             trial: None,
             spare: None,
-            opt_in: true,
+            handover: Handover::Summary,
         }
     }
 
     /// Whether the solver hands the library its pass's totals ([`SummaryNd`]; default
     /// yes): `false` shows the generic path, where every limit makes its own passes.
     pub fn with_summary(mut self, opt_in: bool) -> Self {
-        self.opt_in = opt_in;
+        self.handover = if opt_in {
+            Handover::Summary
+        } else {
+            Handover::Moduli
+        };
+        self
+    }
+
+    /// A solver for runs without the controller (the fixed-step baseline): its passes form
+    /// neither the totals nor the tangent moduli, which nothing reads there; its views'
+    /// moduli are those of the first state.
+    pub fn without_views(mut self) -> Self {
+        self.handover = Handover::Nothing;
         self
     }
 
@@ -203,10 +228,11 @@ fn particle_to_grid(
     mass: &[f64],
     volume0: &[f64],
     s: &mut State,
-    summarize: bool,
+    handover: Handover,
 ) {
     let h = grid.h[0];
-    let mut totals = summarize.then(|| PassTotals::new(h, model));
+    let mut totals = (handover == Handover::Summary).then(|| PassTotals::new(h, model));
+    let moduli = handover != Handover::Nothing;
     let inv = 4.0 / (h * h);
     let nn = grid.n_nodes();
     s.node_mass.clear();
@@ -225,6 +251,9 @@ fn particle_to_grid(
         let tau = model.kirchhoff(&f, j);
         s.sigma[p] = tau / j;
         s.density[p] = mass[p] / (volume0[p] * j);
+        if moduli {
+            (s.lame_lambda[p], s.lame_mu[p]) = model.tangent(&f, j);
+        }
         // −V⁰ τ (4/h²): the force on node i is stress_term · (x_i − x_p).
         let stress_term = -volume0[p] * inv * tau;
         let affine = mass[p] * s.affine[p];
@@ -237,6 +266,7 @@ fn particle_to_grid(
                 f: &f,
                 sigma: &s.sigma[p],
                 density: s.density[p],
+                lame: (s.lame_lambda[p], s.lame_mu[p]),
             });
         }
         for a in 0..3 {
@@ -368,7 +398,7 @@ impl MlsMpm {
             &self.mass,
             &self.volume0,
             &mut s,
-            self.opt_in,
+            self.handover,
         );
         Ok(s)
     }
@@ -384,15 +414,19 @@ impl MlsMpm {
             f: tensors(&s.f),
             volume0: &self.volume0,
             mass: &self.mass,
-            lame_lambda: &self.lame_lambda,
-            lame_mu: &self.lame_mu,
+            lame_lambda: &s.lame_lambda,
+            lame_mu: &s.lame_mu,
             density: &s.density,
             weights: (&s.weights).into(),
             node_mass: &s.node_mass,
             node_velocity: vectors(&s.node_v),
             node_acceleration: vectors(&s.node_a),
             node_active: &s.active,
-            summary: if self.opt_in { s.summary } else { None },
+            summary: if self.handover == Handover::Summary {
+                s.summary
+            } else {
+                None
+            },
             split: None,
         }
     }

@@ -20,9 +20,7 @@ pub struct PassTotals {
     /// `4/h²`, MLS-MPM's `D_p⁻¹` for quadratic B-splines.
     inv: f64,
     h: f64,
-    /// `λ + 2μ` of the model's tangent about rest.
-    c_p: f64,
-    /// The model's small-strain Lamé parameters.
+    /// The model's small-strain Lamé parameters (the growth monitor's energy).
     lambda: f64,
     mu: f64,
 }
@@ -36,6 +34,8 @@ pub struct ParticleFields<'a> {
     pub f: &'a Matrix2<f64>,
     pub sigma: &'a Matrix2<f64>,
     pub density: f64,
+    /// Its tangent pair `(λ_t, μ_t)` ([`Model::tangent`]).
+    pub lame: (f64, f64),
 }
 
 impl PassTotals {
@@ -51,16 +51,15 @@ impl PassTotals {
             unit_step: f64::INFINITY,
             inv: 4.0 / (h * h),
             h,
-            c_p: lambda + 2.0 * mu,
             lambda,
             mu,
         }
     }
 
-    /// Adds one particle. Its element bound is `(4/h²)(V_p/m_p)(2λ + 2μ)` with
-    /// `V_p = det(F_p) V⁰_p`: MLS-MPM's gradient metric is `(4/h²) I`
-    /// (`mpm_dt::limits_nd::element_bound`), so this is what the library's pass would
-    /// compute, in O(1).
+    /// Adds one particle. Its element bound is `(4/h²)(V_p/m_p)(2λ_t + 2μ_t)` with
+    /// `V_p = det(F_p) V⁰_p` and its tangent pair: MLS-MPM's gradient metric is
+    /// `(4/h²) I` (`mpm_dt::limits_nd::element_bound`), so this is what the library's pass
+    /// would compute, in O(1); its signal speed takes `c_p = √((λ_t + 2μ_t)/ρ_p)`.
     #[inline]
     pub fn add(&mut self, p: &ParticleFields<'_>) {
         // One non-finite entry makes the sum non-finite.
@@ -74,13 +73,13 @@ impl PassTotals {
             self.inv,
             2.0 * self.inv,
             volume / p.mass,
-            self.lambda,
-            self.mu,
+            p.lame.0,
+            p.lame.1,
         );
         if bound.is_nan() || bound > self.element_bound {
             self.element_bound = bound;
         }
-        let c = (self.c_p / p.density).sqrt();
+        let c = ((p.lame.0 + 2.0 * p.lame.1) / p.density).sqrt();
         let step = self.h / (c + p.v.amax());
         if step.is_nan() || step < self.unit_step {
             self.unit_step = step;
@@ -88,8 +87,10 @@ impl PassTotals {
     }
 
     /// `½ σ:C⁻¹:σ · det(F) V⁰` with the model's small-strain moduli: the energy the
-    /// library's growth monitor sums in its own pass (`limits_nd::GrowthNd::energies`),
-    /// handed over so that opting in does not change what it watches. (The fluid's own
+    /// library's growth monitor sums in its own pass (`limits_nd::GrowthNd::energies`)
+    /// at rest moduli — with the view's tangent pair its pass weighs the same stress by a
+    /// slightly different `C⁻¹` (the generic path, `--generic`), while this one keeps a
+    /// fixed quadratic form of the stress, which an elastic rebound does not raise. (The fluid's own
     /// stored energy `E (J − 1 − ln J)` is no indicator of stability: mpm88 advects `J`
     /// without conserving it, and splashing particles drift to large `J`; measured, it
     /// stopped the controlled run with 22 false growth detections.)

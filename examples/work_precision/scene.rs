@@ -131,12 +131,18 @@ impl Scene {
             Kind::Two(s) => self.run_nd::<2>(s, policy),
             Kind::Three(s) => self.run_nd::<3>(s, policy),
             Kind::Mpm88(scene) => {
-                // Fixed-step runs never compute the pass totals (as in `mls_mpm`).
+                // Fixed-step runs compute neither the pass totals nor the tangent moduli
+                // (as in `mls_mpm`).
                 let controlled = matches!(policy, Policy::Controller(_));
                 let solver = mpm88::build(mpm88::Scene {
                     summary: controlled,
                     ..*scene
                 });
+                let solver = if controlled {
+                    solver
+                } else {
+                    solver.without_views()
+                };
                 let controller = |c: ControllerConfig| {
                     Controller::<2>::standard(mpm88::controller_config(*scene, &c))
                         .map_err(|e| e.to_string())
