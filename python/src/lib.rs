@@ -114,7 +114,9 @@ where
 ///
 /// The state dict holds ``"x"`` (n, d), ``"v"`` (n, d), ``"mass"`` (n,), ``"volume0"``
 /// (n,), ``"F"`` (n, d, d), ``"stress"`` (n, d, d) Cauchy, the moduli as ``"lame"`` (n, 2)
-/// or the scalars ``"youngs_modulus"`` and ``"poisson_ratio"``, the grid as ``"cells"``
+/// or the scalars ``"youngs_modulus"`` and ``"poisson_ratio"`` (with an optional
+/// ``"material"``, ``"neo_hookean"`` or ``"fixed_corotated"``, they are the small-strain
+/// moduli and each particle's tangent pair at its ``F`` is used), the grid as ``"cells"``
 /// (d,), ``"length"`` (d,), ``"boundary"`` (``"periodic"``, ``"fixed"`` or one per
 /// axis), optional ``"origin"`` (d,), ``"shape"`` (``"bspline2"``, ``"gimp"``,
 /// ``"linear"``), optional ``"transfer"`` (``"flip"``, ``"apic"``: the APIC limit

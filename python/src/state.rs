@@ -10,7 +10,9 @@
 //!   `a_i = (−Σ_p V_p σ_p ∇S_ip)/m_i + g` (eq 18), `V_p = det(F_p) V⁰_p`;
 //! * the density `ρ_p = m_p/(det(F_p) V⁰_p)` and the tangent Lamé moduli from `"lame"` or
 //!   from `"youngs_modulus"`, `"poisson_ratio"`: `λ = Eν/((1 + ν)(1 − 2ν))`,
-//!   `μ = E/(2(1 + ν))`.
+//!   `μ = E/(2(1 + ν))`; with `"material"` (`"neo_hookean"`, `"fixed_corotated"`) those are
+//!   the small-strain pair and each particle's tangent at its `F` is reported
+//!   (`mpm_dt::tangent`).
 
 use crate::arrays::{item, read_into, scalar, shape_of, with_values};
 use crate::errors::state_error;
@@ -356,6 +358,7 @@ impl<const D: usize> StateNd<D> {
             }
             self.density.push(self.mass[p] / (j * self.volume0[p]));
         }
+        self.apply_material(dict)?;
         if dict.contains("domain")? {
             vectors(dict, "domain", n, &mut self.domain)?;
         } else if self.shape == ShapeNd::Gimp {
@@ -438,6 +441,52 @@ impl<const D: usize> StateNd<D> {
         });
         match bad {
             Some(p) => Err(state_error(py, format!("state[\"lame\"][{p}] = ({}, {}): need finite moduli with mu >= 0 and lambda + 2 mu >= 0", self.lame_lambda[p], self.lame_mu[p]))),
+            None => Ok(()),
+        }
+    }
+
+    /// `"material"` (optional): the moduli read so far are the material's small-strain
+    /// pair, and each particle reports its tangent pair at its `F` instead
+    /// (`mpm_dt::tangent`): `"neo_hookean"` the exact `(λ/J, (μ − λ ln J)/J)`,
+    /// `"fixed_corotated"` (Stomakhin et al. 2012; mpm99, taichi_elements) an isotropic
+    /// pair bounding its acoustic tensor and its tangent on symmetric tensors;
+    /// `"linear_elastic"` (the default) keeps the pair as given. Called after the
+    /// density, which refuses `det F ≤ 0` first.
+    fn apply_material(&mut self, dict: &Bound<'_, PyDict>) -> PyResult<()> {
+        let py = dict.py();
+        if !dict.contains("material")? {
+            return Ok(());
+        }
+        let name: String = item(dict, "material")?
+            .extract()
+            .map_err(|_| state_error(py, "state[\"material\"] must be a string".to_string()))?;
+        let tangent: fn(f64, f64, &Tensor<D>) -> (f64, f64) = match name.as_str() {
+            "linear_elastic" => return Ok(()),
+            "neo_hookean" => mpm_dt::tangent::neo_hookean::<D>,
+            "fixed_corotated" => mpm_dt::tangent::fixed_corotated::<D>,
+            other => {
+                return Err(state_error(
+                    py,
+                    format!("state[\"material\"] = {other:?}: expected \"linear_elastic\", \"neo_hookean\" or \"fixed_corotated\""),
+                ))
+            }
+        };
+        for ((l, m), f) in self
+            .lame_lambda
+            .iter_mut()
+            .zip(&mut self.lame_mu)
+            .zip(&self.f)
+        {
+            (*l, *m) = tangent(*l, *m, f);
+        }
+        match (0..self.f.len()).find(|&p| !self.lame_lambda[p].is_finite()) {
+            Some(p) => Err(state_error(
+                py,
+                format!(
+                    "state[\"material\"] = {name:?}: no tangent moduli at particle {p} (F = {:?})",
+                    self.f[p].as_slice()
+                ),
+            )),
             None => Ok(()),
         }
     }

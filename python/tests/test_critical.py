@@ -90,3 +90,33 @@ def test_eq56_modulus_on_a_larger_layout_is_conservative_within_20_percent() -> 
     print(f"E_max: eq 56 {e_eq56:.4f}, full map {e_full:.4f}, bisection {empirical:.4f}")
     assert e_eq56 <= empirical <= 1.2 * e_eq56
     assert empirical == pytest.approx(e_full, rel=0.05)
+
+
+def test_material_reports_the_tangent_moduli(bar: Any) -> None:
+    """``"material"``: each particle's tangent pair at its F (mpm_dt::tangent)."""
+    s = bar.state(False)
+    n = len(s["mass"])
+    # At rest both models give the small-strain pair: the same critical steps.
+    rest = mpm_dt.critical_dt(s)
+    for material in ("linear_elastic", "neo_hookean", "fixed_corotated"):
+        c = mpm_dt.critical_dt(dict(s, material=material))
+        assert c["lambda_max"] == pytest.approx(rest["lambda_max"], rel=1e-12)
+        assert c["c_p"] == pytest.approx(rest["c_p"], rel=1e-12)
+    # Compressed along x: neo-Hookean's exact (lambda/J, (mu - lambda ln J)/J).
+    f = np.tile(np.diag([0.9, 1.0]), (n, 1, 1))
+    j = 0.9
+    lam, mu = bar.lam, bar.mu
+    lt, mt = lam / j, (mu - lam * math.log(j)) / j
+    rho = s["mass"][0] / (j * s["volume0"][0])
+    c = mpm_dt.critical_dt(dict(s, F=f, material="neo_hookean"))
+    assert c["c_p"] == pytest.approx(math.sqrt((lt + 2 * mt) / rho), rel=1e-12)
+    # The fixed-corotated bound is at least its rest pair's P-wave modulus here, and the
+    # stiffness grows with it.
+    fc = mpm_dt.critical_dt(dict(s, F=f, material="fixed_corotated"))
+    plain = mpm_dt.critical_dt(dict(s, F=f))
+    assert fc["c_p"] > plain["c_p"]
+    assert fc["lambda_max"] > plain["lambda_max"]
+    with pytest.raises(mpm_dt.StateError, match="material"):
+        mpm_dt.critical_dt(dict(s, material="jelly"))
+    with pytest.raises(mpm_dt.StateError, match="material"):
+        mpm_dt.critical_dt(dict(s, material=3))
