@@ -73,13 +73,15 @@ class Mpm88:
         self.grid_m = ti.field(float, (n_grid, n_grid))
         # What the view reads, written by one kernel into one float64 numpy buffer
         # (taichi's CPU backend hands a kernel the numpy buffer itself: no copy), laid out
-        # as contiguous blocks x (n, 2), v (n, 2), F (n, 2, 2), stress (n, 2, 2) and the
-        # summary's totals, so that the package reads each field in place.
-        self.buf = np.empty(12 * n + 8)
+        # as contiguous blocks x (n, 2), v (n, 2), F (n, 2, 2), stress (n, 2, 2), the
+        # tangent moduli (n, 2) and the summary's totals, so that the package reads each
+        # field in place.
+        self.buf = np.empty(14 * n + 8)
         self.out = dict(x=self.buf[: 2 * n].reshape(n, 2), v=self.buf[2 * n: 4 * n].reshape(n, 2),
                         F=self.buf[4 * n: 8 * n].reshape(n, 2, 2),
-                        stress=self.buf[8 * n: 12 * n].reshape(n, 2, 2))
-        self.totals = self.buf[12 * n:]
+                        stress=self.buf[8 * n: 12 * n].reshape(n, 2, 2),
+                        lame=self.buf[12 * n: 14 * n].reshape(n, 2))
+        self.totals = self.buf[14 * n:]
         # The summary's constants in float64 (a Python float in a kernel is a literal of
         # taichi's default precision, float32 here): lambda, mu, h, m, V0.
         self.consts = ti.field(ti.f64, 5)
@@ -96,7 +98,6 @@ class Mpm88:
         self.solver_s = self.export_s = 0.0
         self.mass = np.full(n, self.p_mass)
         self.volume0 = np.full(n, self.p_vol)
-        self.lame = np.tile([self.lam, self.mu], (n, 1))
         self.budget = self.energies()[0] + self.energies()[2]
 
     @ti.kernel
@@ -182,17 +183,53 @@ class Mpm88:
                 b.J[p] = a.J[p] * (1 + dt * new_C.trace())
                 b.F[p] = ti.Matrix.identity(float, 2) * ti.sqrt(ti.max(b.J[p], 0.0))
 
+    @ti.func
+    def tangent(self, F, lam, mu):
+        """The jelly's tangent pair at F, float64: the fixed-corotated bound of mpm_dt's
+        `tangent::fixed_corotated` in 2D (its P-wave modulus bounds the acoustic tensor in
+        every direction; (lam, mu) at rest), from F's singular values in closed form. The
+        fluid's (E, 0) is its acoustic modulus at every J (examples/mls_mpm/model.rs), and
+        an inverted F keeps the rest pair for the package to refuse the state."""
+        lt, mt = lam, mu
+        a, b, c, d = F[0, 0], F[0, 1], F[1, 0], F[1, 1]
+        J = a * d - b * c
+        if ti.static(self.jelly):
+            if J > 0.0:
+                q = ti.sqrt((a + d) ** 2 + (c - b) ** 2)
+                r = ti.sqrt((a - d) ** 2 + (b + c) ** 2)
+                s0, s1 = 0.5 * (q + r), ti.abs(0.5 * (q - r))
+                lp, inv_j, inv_sum = ti.max(lam, 0.0), 1.0 / J, 1.0 / (s0 + s1)
+                twist = 2.0 * (1.0 - inv_sum)
+                m = ti.max(ti.max(2.0 * s0 * s0 - s0, 2.0 * s1 * s1 - s1),
+                           ti.max(twist * s1 * s1, twist * s0 * s0))
+                g = (s0 * s0 + s1 * s1 - (s0 - s1) ** 2 * inv_sum) * inv_j
+                dp = lp * (J - 1.0) + mu * ((ti.max(s0, s1) + m) * inv_j - 2.0)
+                ds_diag = 2.0 * mu * (ti.max(s0 * s0, s1 * s1) * inv_j - 1.0) - lam * (J - 1.0) \
+                    + 2.0 * (ti.max(lam * (2.0 * J - 1.0), 0.0) - lp)
+                ds = ti.max(ds_diag, mu * (g - 2.0) - lam * (J - 1.0) - 2.0 * lp)
+                p_bound = ti.max(lp + 2.0 * mu + dp, 0.0)
+                s_bound = ti.max(2.0 * lp + 2.0 * mu + ds, 0.0)
+                lt = lp + ds - dp
+                mt = mu + (dp - (lt - lp)) / 2.0
+                if lt < 0.0:
+                    lt, mt = 0.0, 0.5 * p_bound
+                elif mt < 0.0:
+                    lt, mt = ti.max(s_bound / 2.0, p_bound), 0.0
+        return lt, mt
+
     @ti.kernel
     def export(self, s: ti.template(), buf: ti.types.ndarray()):
         """x, v, F (sqrt(J) I for the fluid) and the Cauchy stress tau / J in float64 into
-        `buf` (layout in `__init__`), and from the same values, in float64, the summary's
-        totals: kinetic energy, the growth monitor's complementary energy
-        1/2 sigma : C^-1 : sigma V, the first moment, the element bound
-        (V/m) min((4/h^2) max(2 lambda + 2 mu, 2 mu), 2 (4/h^2) max(lambda + 2 mu, 2 mu)) of
-        MLS-MPM's gradients, the speed-of-sound step min h / (c_p + |v_a|), and the number
-        of particles within a cell of the box's edge."""
+        `buf` (layout in `__init__`), each particle's tangent pair (lambda_t, mu_t)
+        (`tangent`), and from the same values, in float64, the summary's totals: kinetic
+        energy, the growth monitor's complementary energy 1/2 sigma : C^-1 : sigma V (rest
+        moduli), the first moment, the element bound
+        (V/m) min((4/h^2) max(2 lambda_t + 2 mu_t, 2 mu_t), 2 (4/h^2) max(lambda_t + 2 mu_t, 2 mu_t))
+        of MLS-MPM's gradients, the speed-of-sound step min h / (c_p + |v_a|) with
+        c_p = sqrt((lambda_t + 2 mu_t) / rho), and the number of particles within a cell of
+        the box's edge."""
         n = self.n
-        t0 = 12 * n
+        t0 = 14 * n
         for k in ti.static(range(8)):
             buf[t0 + k] = 0.0
         buf[t0 + 5] = 1e30
@@ -209,6 +246,9 @@ class Mpm88:
                 for b in ti.static(range(2)):
                     buf[4 * n + 4 * p + 2 * a + b] = Fp[a, b]
                     buf[8 * n + 4 * p + 2 * a + b] = sp[a, b]
+            lt, mt = self.tangent(Fp, lam, mu)
+            buf[12 * n + 2 * p] = lt
+            buf[12 * n + 2 * p + 1] = mt
             vol = Fp.determinant() * vol0
             tr = sp.trace()
             strain = ti.cast(0.0, ti.f64)
@@ -220,10 +260,10 @@ class Mpm88:
             buf[t0 + 1] += strain
             buf[t0 + 2] += m * xp[0]
             buf[t0 + 3] += m * xp[1]
-            bound = vol / m * ti.min(inv * ti.max(2.0 * lam + 2.0 * mu, 2.0 * mu),
-                                     2.0 * inv * ti.max(lam + 2.0 * mu, 2.0 * mu))
+            bound = vol / m * ti.min(inv * ti.max(2.0 * lt + 2.0 * mt, 2.0 * mt),
+                                     2.0 * inv * ti.max(lt + 2.0 * mt, 2.0 * mt))
             ti.atomic_max(buf[t0 + 4], bound)
-            c = ti.sqrt((lam + 2.0 * mu) * vol / m)
+            c = ti.sqrt((lt + 2.0 * mt) * vol / m)
             ti.atomic_min(buf[t0 + 5], h / (c + ti.max(ti.abs(vp[0]), ti.abs(vp[1]))))
             if not (h <= xp[0] <= 1.0 - h and h <= xp[1] <= 1.0 - h):
                 buf[t0 + 6] += 1.0
@@ -288,7 +328,7 @@ class Mpm88:
         tot = self.totals
         if trial and tot[6] > 0:
             raise mpm_dt.StepFailed("a particle crossed a wall")
-        out = dict(self.out, mass=self.mass, volume0=self.volume0, lame=self.lame,
+        out = dict(self.out, mass=self.mass, volume0=self.volume0,
                    cells=(self.n_grid,) * 2, length=(1.0, 1.0), boundary="fixed", shape="bspline2",
                    transfer="apic", gradient="mls")
         if self.summary:

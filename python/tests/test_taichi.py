@@ -73,11 +73,30 @@ def test_the_kernel_s_summary_is_the_arrays_totals(mpm88: Any) -> None:
     tr = np.trace(sig, axis1=1, axis2=2)
     strain = 0.5 * vol * ((sig**2).sum((1, 2)) - lam * tr * tr / (2 * mu + 2 * lam)) / (2 * mu)
     inv = 4.0 / h**2
-    bound = vol / m * min(inv * max(2 * lam + 2 * mu, 2 * mu), 2 * inv * max(lam + 2 * mu, 2 * mu))
-    c = np.sqrt((lam + 2 * mu) * vol / m)
+    lt, mt = s["lame"][:, 0], s["lame"][:, 1]
+    bound = vol / m * np.minimum(inv * np.maximum(2 * lt + 2 * mt, 2 * mt),
+                                 2 * inv * np.maximum(lt + 2 * mt, 2 * mt))
+    c = np.sqrt((lt + 2 * mt) * vol / m)
     want = dict(kinetic=0.5 * m * (s["v"] ** 2).sum(), strain=strain.sum(), element_bound=bound.max(),
                 sound_unit_step=(h / (c + np.abs(s["v"]).max(1))).min())
     assert abs(strain.sum()) > 0
     for key, value in want.items():
         assert s["summary"][key] == pytest.approx(value, rel=1e-12), key
     assert s["summary"]["first_moment"] == pytest.approx(m * s["x"].sum(0), rel=1e-12)
+
+
+def test_the_kernel_s_tangent_moduli_are_the_library_s(mpm88: Any) -> None:
+    """The export kernel's fixed-corotated pair (a port of mpm_dt::tangent) against the
+    package's own (``"material"``) on a jelly deformed by its impact, where the pair is
+    above the rest moduli."""
+    sim = mpm88.Mpm88(jelly=True)
+    mpm_dt.Controller(dim=2, config={}, gravity=(0.0, -9.8)).run_until(sim, 0.2)
+    s = dict(sim.state(False))
+    s["lame"] = s["lame"].copy()
+    rest = np.tile([sim.lam, sim.mu], (len(s["mass"]), 1))
+    p_wave = s["lame"][:, 0] + 2 * s["lame"][:, 1]
+    assert p_wave.max() > 1.01 * (sim.lam + 2 * sim.mu)
+    ours = mpm_dt.critical_dt(s)
+    theirs = mpm_dt.critical_dt(dict(s, lame=rest, material="fixed_corotated"))
+    for key in ("lambda_max", "c_p"):
+        assert ours[key] == pytest.approx(theirs[key], rel=1e-12), key
