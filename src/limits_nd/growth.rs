@@ -17,6 +17,19 @@
 //!   times the kinetic plus elastic energy then (a slow instability). The history is then
 //!   cleared, so the retry is judged on the step alone: one rejection per detection.
 //!
+//! **The elastic part is a linear-elastic measure.** Summed here (a stepper that hands
+//! over no [`crate::nd::SummaryNd`]), it is the complementary energy `½ σ:C_t⁻¹:σ` with the
+//! view's tangent moduli — the stored energy of a linear-elastic material, and only an
+//! approximation of a hyperelastic one's. Where the tangent moduli move with `F` (a
+//! neo-Hookean or fixed-corotated solid reporting its tangent pair, [`crate::tangent`]),
+//! `E` so measured can rise through an elastic rebound that conserves the material's own
+//! energy, and the monitor then rejects a step that is stable (measured: one such
+//! detection on the mpm88 jelly, `examples/mls_mpm --generic`, none when the solver hands
+//! over a fixed quadratic form). A solver with a stored-energy function hands over its own
+//! elastic energy in [`crate::nd::SummaryNd::strain`] instead — any quantity that a stable
+//! run does not increase beyond a small oscillation (`examples/user_flip` hands over its
+//! neo-Hookean energy, `examples/mls_mpm` the complementary energy at rest moduli).
+//!
 //! On a growth rejection the controller lowers every limit's safety factor by
 //! `ControllerConfig::growth.safety_factor` for the rest of the run, and ends the run when
 //! it would fall below `growth.min_safety_scale` of its start
