@@ -118,7 +118,27 @@ impl Judgement {
     }
 }
 
-/// Names of the metrics the controller reads from the limits.
+/// Names of the metrics the controller reads from the limits, and the diagnostics the
+/// standard limits add to a decision's records ([`crate::controller::LimitRecord::metrics`],
+/// in the JSON log and `on_decision`). The controller reads only the constants below; the
+/// others are for users and tools, per limit:
+///
+/// | limit | metric | meaning |
+/// |---|---|---|
+/// | `sound_speed` | `dt_sound_unit` | the speed-of-sound step at α = 1, `min_p min_a h_a/(c_p + \|v_pa\|)` (eq 49) |
+/// | `stability` (both) | `lambda_max` | `λmax` the proposal used (eq 56) |
+/// | `stability` (1D) | `dt_eq56`, `safety` | the eq 56 step before the safety factor, and that factor |
+/// | `stability` (1D) | `lanczos_applications`, `lanczos_residual` | operator products of this proposal's estimate (0 when a cached value served), its residual |
+/// | `stability` (1D, certified) | `lambda_rayleigh`, `lambda_certified`, `lambda_factorisations` | the Rayleigh quotient, whether the `LDLᵀ` inertia test certified it (1/0), factorisations spent |
+/// | `stability` (1D, judge) | `bound58`, `bound58_euclidean` | eq 58's lower bound on the amplification matrix's norm, in the energy and the Euclidean norm |
+/// | `stability` (2D/3D) | `refreshes`, `lanczos_applications` | Lanczos runs and operator products since the start, on a proposal that refreshed |
+/// | `stability` (2D/3D) | `bound_ratio` | `B/λ`, the element bound over the Lanczos value at the last refresh ([`crate::limits_nd::bound_tracking`]) |
+/// | `stability` (2D/3D) | `bound_proposals`, `calibrated_proposals` | proposals made on the element bound, and on the calibrated bound, since the start |
+/// | `stability` (2D/3D, APIC) | `transfer_gain` | `1 + p` of [`crate::limits_nd::transfer`] |
+/// | `temporal_error` | `dsm_v`, `dsm_sigma`, `dsm_particles` | the velocity and stress parts of `dsm` (eqs 20–30) and the particles in the norm |
+/// | `growth` (1D) | `growth_indicator`, `growth_ratio` | the monitor's indicator of the trial and, on a detection, the last window maximum over the first |
+/// | `growth` (2D/3D) | `energy` | the watched energy `E` of the trial ([`crate::limits_nd::growth`]) |
+/// | any, after a growth detection | `safety_scale` | the factor every limit's proposal is multiplied by for the rest of the run |
 pub mod metric {
     /// Scaled temporal error (eqs 20–30), `dsm ≤ 1` accepts; fed to the filter.
     pub const DSM: &str = "dsm";
