@@ -180,7 +180,7 @@ fn singular_values<const D: usize>(f: &Tensor<D>) -> Option<[f64; 3]> {
 /// `(√((a + d)² + (c − b)²) ± √((a − d)² + (b + c)²))/2` (the half-sum and half-difference
 /// of the norms of the matrix's conformal and anti-conformal parts); a few flops where an
 /// iterative SVD takes about a hundred nanoseconds, which counts when a solver forms the
-/// pair for every particle in every step. The smaller one is clamped at zero (round-off).
+/// pair for every particle in every step. The smaller is `|q − r|/2`, exact also for `det < 0`.
 fn singular_values_2x2(a: f64, b: f64, c: f64, d: f64) -> [f64; 3] {
     let q = ((a + d) * (a + d) + (c - b) * (c - b)).sqrt();
     let r = ((a - d) * (a - d) + (b + c) * (b + c)).sqrt();

@@ -37,18 +37,23 @@ impl Model {
         }
     }
 
-    /// The isotropic tangent pair `(λ_t, μ_t)` the view reports for a particle at `F`, `J`
-    /// (`mpm_dt::nd::ViewNd::lame_lambda`): for the jelly the bound of
+    /// The isotropic tangent pair `(λ_t, μ_t)` the view reports for a particle at `F`
+    /// (`mpm_dt::nd::ViewNd::lame_lambda`). For the jelly the bound of
     /// [`mpm_dt::tangent::fixed_corotated`] (its P-wave modulus `λ_t + 2μ_t` bounds the
     /// acoustic tensor in every direction, initial stress included; `(λ, μ)` at rest; at
-    /// the mpm88 impact up to 1.25× the rest pair's P-wave modulus); for the fluid
-    /// `(E, 0)` at every `J`. The fluid's Cauchy stress `σ = s(J) I`, `s = E (J − 1)/J`,
-    /// moves by `δσ = (E/J) tr(δε) I` under a velocity-gradient perturbation, and its
-    /// acoustic tensor along `n` adds the initial stress `n·σn = s`: `E/J + E(J − 1)/J = E`
-    /// exactly, in compression and in tension (the transverse eigenvalue `s` is below it).
-    /// The elasticity tensor alone, `(E/J) I⊗I`, is larger in compression; the initial
-    /// stress, negative there, takes it back down.
-    pub fn tangent(&self, f: &Matrix2<f64>, _j: f64) -> (f64, f64) {
+    /// the mpm88 impact up to 1.25× the rest pair's P-wave modulus).
+    ///
+    /// For the fluid `(E, 0)` at every `J`: the linearisation of the force it puts on the
+    /// grid, `V⁰ τ` with `τ = E (J − 1) I`, which moves by `V⁰ E J tr(δL) = V E tr(δL)` per
+    /// current volume `V` — the stiffness eq 56's `K` analyses with the weights frozen.
+    /// It is *not* the fluid's acoustic modulus: with `p = E (1/J − 1)`, `ρc² = −J dp/dJ =
+    /// E/J`, which `(E, 0)` under-reports by `1/J` in compression (`J` ≥ 0.93 on most of
+    /// mpm88's fluid, so the sound-speed cap reads a speed up to a few per cent low there)
+    /// and over-reports in tension. Kept because the stability limit binds on this scene
+    /// and the sound-speed cap does not (3 of 1 911 steps); reporting `E max(1, 1/J)`
+    /// instead stopped the 128-cell fluid with `GrowthPersists`, which says more about how
+    /// near its failure step this scene runs than about the moduli.
+    pub fn tangent(&self, f: &Matrix2<f64>) -> (f64, f64) {
         let (lambda, mu) = self.lame();
         match self {
             Model::Jelly { .. } => mpm_dt::tangent::fixed_corotated(lambda, mu, f),

@@ -168,9 +168,11 @@ impl MlsMpm {
         self
     }
 
-    /// A solver for runs without the controller (the fixed-step baseline): its passes form
-    /// neither the totals nor the tangent moduli, which nothing reads there; its views'
-    /// moduli are those of the first state.
+    /// A solver for runs without the controller (fixed steps and the rules of thumb): its
+    /// passes form neither the totals nor the tangent moduli. Its views keep the first
+    /// state's moduli — the rest pair, which is what a rule of thumb `α·h/(c_p + |v|)`
+    /// reads (`SoundSpeed::unit_step` in `main.rs` and `work_precision`): a user's rule
+    /// takes the material's wave speed, not a tangent one.
     pub fn without_views(mut self) -> Self {
         self.handover = Handover::Nothing;
         self
@@ -252,7 +254,7 @@ fn particle_to_grid(
         s.sigma[p] = tau / j;
         s.density[p] = mass[p] / (volume0[p] * j);
         if moduli {
-            (s.lame_lambda[p], s.lame_mu[p]) = model.tangent(&f, j);
+            (s.lame_lambda[p], s.lame_mu[p]) = model.tangent(&f);
         }
         // −V⁰ τ (4/h²): the force on node i is stress_term · (x_i − x_p).
         let stress_term = -volume0[p] * inv * tau;

@@ -188,8 +188,9 @@ class Mpm88:
         """The jelly's tangent pair at F, float64: the fixed-corotated bound of mpm_dt's
         `tangent::fixed_corotated` in 2D (its P-wave modulus bounds the acoustic tensor in
         every direction; (lam, mu) at rest), from F's singular values in closed form. The
-        fluid's (E, 0) is its acoustic modulus at every J (examples/mls_mpm/model.rs), and
-        an inverted F keeps the rest pair for the package to refuse the state."""
+        fluid keeps (E, 0), the linearisation of the grid force V0 tau (not its acoustic
+        modulus E/J; examples/mls_mpm/model.rs says why), and an inverted F keeps the rest
+        pair for the package to refuse the state."""
         lt, mt = lam, mu
         a, b, c, d = F[0, 0], F[0, 1], F[1, 0], F[1, 1]
         J = a * d - b * c

@@ -8,6 +8,7 @@ mod arrays;
 mod controller;
 mod convert;
 mod errors;
+mod moduli;
 mod state;
 mod stepper;
 mod summary;
@@ -152,6 +153,9 @@ where
     let s = read::<D>(state)?;
     let e = if state.contains("youngs_modulus")? {
         arrays::scalar(state, "youngs_modulus")?
+    } else if state.contains("material")? {
+        // The rows are then the tangent pairs, not the material's: its E is not theirs.
+        return Err(state_error(py, "max_stable_modulus with \"material\" needs the scalars \"youngs_modulus\" and \"poisson_ratio\" (the tangent pairs scale with E)".into()));
     } else {
         // Per-particle moduli: they must be one material, E = μ(3λ + 2μ)/(λ + μ).
         let (l, m) = (s.lame_lambda[0], s.lame_mu[0]);

@@ -120,3 +120,13 @@ def test_material_reports_the_tangent_moduli(bar: Any) -> None:
         mpm_dt.critical_dt(dict(s, material="jelly"))
     with pytest.raises(mpm_dt.StateError, match="material"):
         mpm_dt.critical_dt(dict(s, material=3))
+    # E_max under a material: from the scalars (the tangent pairs are linear in E), and
+    # refused from "lame" rows, which are then tangent pairs, not the material's.
+    e_nh = mpm_dt.max_stable_modulus(dict(s, F=f, material="neo_hookean"), 0.01)
+    stiff = dict(s, F=f, material="neo_hookean", youngs_modulus=2 * s["youngs_modulus"])
+    assert mpm_dt.max_stable_modulus(stiff, 0.01) == pytest.approx(e_nh, rel=1e-9)
+    rows = {k: v for k, v in s.items() if k not in ("youngs_modulus", "poisson_ratio")}
+    rows.update(F=f, lame=np.tile([lam, mu], (n, 1)), material="neo_hookean")
+    assert mpm_dt.critical_dt(rows)["c_p"] == pytest.approx(c["c_p"], rel=1e-12)
+    with pytest.raises(mpm_dt.StateError, match="youngs_modulus"):
+        mpm_dt.max_stable_modulus(rows, 0.01)
