@@ -89,7 +89,8 @@ pub struct MlsMpm {
 /// What the particle → grid pass forms for the library beyond the step itself.
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Handover {
-    /// Nothing: a run with no controller (the fixed-step baseline) reads no moduli.
+    /// Nothing: a run with no controller (fixed steps, the rules of thumb), whose views
+    /// keep the first state's rest moduli ([`MlsMpm::without_views`]).
     Nothing,
     /// The tangent pair per particle ([`Model::tangent`]): the generic path.
     Moduli,
