@@ -84,7 +84,11 @@
 //! non-finite input or `D ∉ {2, 3}` give `(NaN, NaN)`, which the controller's view check
 //! rejects (naming `lame_lambda`) instead of stepping on a wrong bound.
 
+mod batch;
+mod singular3;
+
 use crate::nd::{det, Tensor};
+pub use batch::fixed_corotated_many;
 #[cfg(test)]
 use nalgebra::Matrix2;
 use nalgebra::Matrix3;
@@ -168,10 +172,9 @@ fn singular_values<const D: usize>(f: &Tensor<D>) -> Option<[f64; 3]> {
             f[(1, 0)],
             f[(1, 1)],
         )),
-        3 => {
-            let s = Matrix3::from_fn(|r, c| f[(r, c)]).singular_values();
-            Some([s[0], s[1], s[2]])
-        }
+        3 => Some(singular3::singular_values_3x3(&Matrix3::from_fn(|r, c| {
+            f[(r, c)]
+        }))),
         _ => None,
     }
 }

@@ -37,9 +37,11 @@ impl Model {
         }
     }
 
-    /// The isotropic tangent pair `(λ_t, μ_t)` the view reports for a particle at `F`
+    /// The isotropic tangent pairs `(λ_t, μ_t)` the view reports for particles at `F`,
+    /// into `lambda_t` and `mu_t`
     /// (`mpm_dt::nd::ViewNd::lame_lambda`). For the jelly the bound of
-    /// [`mpm_dt::tangent::fixed_corotated`] (its P-wave modulus `λ_t + 2μ_t` bounds the
+    /// [`mpm_dt::tangent::fixed_corotated`] (formed by
+    /// [`mpm_dt::tangent::fixed_corotated_many`], several particles at a time; its P-wave modulus `λ_t + 2μ_t` bounds the
     /// acoustic tensor in every direction, initial stress included; `(λ, μ)` at rest; at
     /// the mpm88 impact up to 1.25× the rest pair's P-wave modulus).
     ///
@@ -53,11 +55,16 @@ impl Model {
     /// and the sound-speed cap does not (3 of 1 911 steps); reporting `E max(1, 1/J)`
     /// instead stopped the 128-cell fluid with `GrowthPersists`, which says more about how
     /// near its failure step this scene runs than about the moduli.
-    pub fn tangent(&self, f: &Matrix2<f64>) -> (f64, f64) {
+    pub fn tangents(&self, f: &[Matrix2<f64>], lambda_t: &mut [f64], mu_t: &mut [f64]) {
         let (lambda, mu) = self.lame();
         match self {
-            Model::Jelly { .. } => mpm_dt::tangent::fixed_corotated(lambda, mu, f),
-            Model::Fluid { .. } => (lambda, mu),
+            Model::Jelly { .. } => {
+                mpm_dt::tangent::fixed_corotated_many(lambda, mu, f, lambda_t, mu_t)
+            }
+            Model::Fluid { .. } => {
+                lambda_t.fill(lambda);
+                mu_t.fill(mu);
+            }
         }
     }
 

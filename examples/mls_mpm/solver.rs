@@ -245,6 +245,9 @@ fn particle_to_grid(
     s.node_a.clear();
     s.node_a.resize(nn, Vector2::zeros());
     let n = s.x.len();
+    if moduli {
+        model.tangents(&s.f, &mut s.lame_lambda, &mut s.lame_mu);
+    }
     let (nodes, ws, grads) = s.weights.storage_mut(n);
     for p in 0..n {
         let (bx, wx, dx) = bspline(s.x[p][0], h);
@@ -254,9 +257,6 @@ fn particle_to_grid(
         let tau = model.kirchhoff(&f, j);
         s.sigma[p] = tau / j;
         s.density[p] = mass[p] / (volume0[p] * j);
-        if moduli {
-            (s.lame_lambda[p], s.lame_mu[p]) = model.tangent(&f);
-        }
         // −V⁰ τ (4/h²): the force on node i is stress_term · (x_i − x_p).
         let stress_term = -volume0[p] * inv * tau;
         let affine = mass[p] * s.affine[p];
