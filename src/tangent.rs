@@ -190,6 +190,19 @@ fn singular_values_2x2(a: f64, b: f64, c: f64, d: f64) -> [f64; 3] {
     [0.5 * (q + r), (0.5 * (q - r)).abs(), 0.0]
 }
 
+/// A deterministic sequence in `[0, 1)` (xorshift64) for the tests of this module and its
+/// submodules: no random-number crate in the library's tests.
+#[cfg(test)]
+fn uniform(seed: u64) -> impl FnMut() -> f64 {
+    let mut state = seed;
+    move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -217,13 +230,8 @@ mod tests {
 
     #[test]
     fn closed_form_singular_values_match_the_svd() {
-        let mut state = 0x9e37_79b9_7f4a_7c15_u64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64 * 4.0 - 2.0
-        };
+        let mut uniform = super::uniform(0x9e37_79b9_7f4a_7c15);
+        let mut next = || uniform() * 4.0 - 2.0;
         for _ in 0..1000 {
             let (a, b, c, d) = (next(), next(), next(), next());
             let svd = Matrix2::new(a, b, c, d).singular_values();

@@ -146,13 +146,8 @@ mod tests {
 
     #[test]
     fn many_equals_one_at_a_time_bit_for_bit() {
-        let mut state = 0x5851_f42d_4c95_7f2d_u64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        };
+        let mut uniform = super::super::uniform(0x5851_f42d_4c95_7f2d);
+        let mut next = || uniform() - 0.5;
         // Near the rest state, strongly deformed, inverted, degenerate and non-finite.
         let mut f: Vec<Tensor<2>> = (0..2000)
             .map(|k| {

@@ -38,13 +38,8 @@ mod tests {
 
     #[test]
     fn matches_the_svd() {
-        let mut state = 0x2545_f491_4f6c_dd1d_u64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        };
+        let mut uniform = super::super::uniform(0x2545_f491_4f6c_dd1d);
+        let mut next = || uniform() - 0.5;
         let mut cases: Vec<Matrix3<f64>> = (0..3000)
             .map(|k| {
                 let scale = [0.05, 0.5, 4.0][k % 3];
