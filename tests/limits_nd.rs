@@ -278,3 +278,38 @@ fn the_stability_limit_refuses_a_config_field_out_of_range() {
         }
     }
 }
+
+/// The growth monitor's own energy (no summary handed over) weighs the stress with each
+/// particle's moduli as the first view reported them: a later view reporting stiffer
+/// tangent moduli for the same stress gives the same energy, where the view's own moduli
+/// would give a lower one (module docs of `limits_nd::growth`).
+#[test]
+fn the_growth_monitor_keeps_the_moduli_of_its_first_view() {
+    use mpm_dt::limits_nd::GrowthNd;
+    use mpm_dt::nd::Tensor;
+    use mpm_dt::StepLimit;
+    let s = solver::<2>([4, 4], [1.0, 1.0], ShapeNd::Gimp, 0.3, false, false);
+    let view = s.view();
+    let n = view.n_particles();
+    let sigma: Vec<Tensor<2>> = (0..n)
+        .map(|p| Tensor::<2>::new(0.1 + 1e-3 * p as f64, 0.02, 0.02, -0.05))
+        .collect();
+    let lambda: Vec<f64> = view.lame_lambda.iter().map(|l| 2.0 * l).collect();
+    let mu: Vec<f64> = view.lame_mu.iter().map(|m| 3.0 * m).collect();
+    let first = ViewNd {
+        sigma: &sigma,
+        summary: None,
+        ..view
+    };
+    let stiffer = ViewNd {
+        lame_lambda: &lambda,
+        lame_mu: &mu,
+        ..first
+    };
+    let mut monitor = GrowthNd::new(Vector::<2>::zeros(), 25, 0.1);
+    let own = monitor.energies(&stiffer);
+    monitor.propose(&first).expect("no opinion");
+    let kept = monitor.energies(&stiffer);
+    assert_eq!(kept, monitor.energies(&first));
+    assert!(kept.1 > 0.0 && own.1 < 0.5 * kept.1, "own {own:?}, kept {kept:?}");
+}

@@ -17,18 +17,25 @@
 //!   times the kinetic plus elastic energy then (a slow instability). The history is then
 //!   cleared, so the retry is judged on the step alone: one rejection per detection.
 //!
-//! **The elastic part is a linear-elastic measure.** Summed here (a stepper that hands
-//! over no [`crate::nd::SummaryNd`]), it is the complementary energy `½ σ:C_t⁻¹:σ` with the
-//! view's tangent moduli — the stored energy of a linear-elastic material, and only an
-//! approximation of a hyperelastic one's. Where the tangent moduli move with `F` (a
-//! neo-Hookean or fixed-corotated solid reporting its tangent pair, [`crate::tangent`]),
-//! `E` so measured can rise through an elastic rebound that conserves the material's own
-//! energy, and the monitor then rejects a step that is stable (measured: one such
-//! detection on the mpm88 jelly, `examples/mls_mpm --generic`, none when the solver hands
-//! over a fixed quadratic form). A solver with a stored-energy function hands over its own
-//! elastic energy in [`crate::nd::SummaryNd::strain`] instead — any quantity that a stable
-//! run does not increase beyond a small oscillation (`examples/user_flip` hands over its
-//! neo-Hookean energy, `examples/mls_mpm` the complementary energy at rest moduli).
+//! **The elastic part is a fixed quadratic form of the stress.** Summed here (a stepper that
+//! hands over no [`crate::nd::SummaryNd`]), it is the complementary energy `½ σ:C₀⁻¹:σ`
+//! with each particle's moduli `C₀` *as the first view the monitor summed reported them*
+//! (kept, 16 bytes a particle) — the stored energy of a linear-elastic material, and for a
+//! hyperelastic one a measure that a stable run does not increase beyond a small
+//! oscillation. Not the view's current moduli: a neo-Hookean or fixed-corotated solid
+//! reports its tangent pair ([`crate::tangent`]), which moves with `F`, and `½ σ:C_t⁻¹:σ`
+//! then rises through an elastic rebound that conserves the material's own energy, so
+//! the monitor rejected stable steps — measured on `examples/user_flip --generic`: 7
+//! detections on the falling neo-Hookean block (3 483 steps) and 2 on the disks (1 354),
+//! none with the kept moduli (2 536 and 1 199 steps, as many as the solver that hands over
+//! its own energy takes); one on the mpm88 jelly (`examples/mls_mpm --generic`, 1 612
+//! steps), none with the kept moduli (1 500). The moduli are taken again, and the history
+//! cleared, when the particle count changes; on a grid split over processes
+//! ([`ViewNd::split`]), where particles migrate, the view's own moduli are used. A solver
+//! with a stored-energy function may hand over its own elastic energy in
+//! [`crate::nd::SummaryNd::strain`] instead — any quantity that a stable run does not
+//! increase beyond a small oscillation (`examples/user_flip` hands over its neo-Hookean
+//! energy, `examples/mls_mpm` the complementary energy at rest moduli).
 //!
 //! On a growth rejection the controller lowers every limit's safety factor by
 //! `ControllerConfig::growth.safety_factor` for the rest of the run, and ends the run when
@@ -55,6 +62,10 @@ pub struct GrowthNd<const D: usize> {
     /// The energies of the last judged trial, keyed by its time and step (reused when it is
     /// accepted: one pass over the particles per step).
     judged: Option<(f64, u64, (f64, f64))>,
+    /// Each particle's `(λ, μ)` at the first view summed here: the fixed quadratic form of
+    /// the elastic energy (module docs); empty until then and where a summary is handed
+    /// over.
+    reference_moduli: Vec<(f64, f64)>,
 }
 
 impl<const D: usize> GrowthNd<D> {
@@ -67,11 +78,29 @@ impl<const D: usize> GrowthNd<D> {
             tol,
             history: VecDeque::new(),
             judged: None,
+            reference_moduli: Vec::new(),
         }
     }
 
+    /// Keeps the moduli of `view` as the energy's fixed quadratic form, where the energy is
+    /// summed here (no summary, an undivided grid) and none are kept for its particle
+    /// count; a change of count clears the history (module docs).
+    fn keep_reference_moduli(&mut self, view: &ViewNd<'_, D>) {
+        let n = view.n_particles();
+        if view.summary.is_some() || view.split.is_some() || self.reference_moduli.len() == n {
+            return;
+        }
+        if !self.reference_moduli.is_empty() {
+            self.history.clear();
+        }
+        self.reference_moduli.clear();
+        self.reference_moduli
+            .extend(view.lame_lambda.iter().copied().zip(view.lame_mu.iter().copied()));
+    }
+
     /// `(E, K + U)` of a view (module docs), from the view's [`SummaryNd`] when the
-    /// stepper offers one (no pass over the particles), else summed here.
+    /// stepper offers one (no pass over the particles), else summed here with the kept
+    /// moduli (the view's own before any are kept, or where their count differs).
     ///
     /// [`SummaryNd`]: crate::nd::SummaryNd
     pub fn energies(&self, view: &ViewNd<'_, D>) -> (f64, f64) {
@@ -82,9 +111,14 @@ impl<const D: usize> GrowthNd<D> {
         }
         let mut ku = 0.0;
         let mut pot = 0.0;
+        let kept = (self.reference_moduli.len() == view.n_particles() && view.split.is_none())
+            .then_some(&self.reference_moduli);
         for p in 0..view.n_particles() {
             ku += 0.5 * view.mass[p] * view.v[p].norm_squared();
-            let (l, m) = (view.lame_lambda[p], view.lame_mu[p]);
+            let (l, m) = match kept {
+                Some(moduli) => moduli[p],
+                None => (view.lame_lambda[p], view.lame_mu[p]),
+            };
             let s: &Tensor<D> = &view.sigma[p];
             if m > 0.0 {
                 // ½ σ:C⁻¹σ with C⁻¹σ = (σ − λ tr σ/(2μ + dλ) I)/(2μ), contracted directly.
@@ -111,6 +145,7 @@ where
     }
 
     fn propose(&mut self, state: &ViewNd<'_, D>) -> Result<crate::limit::Proposal, LimitError> {
+        self.keep_reference_moduli(state);
         if self.history.is_empty() {
             let e = self.energies(state);
             self.history.push_back(e);
@@ -154,6 +189,10 @@ where
             Verdict::Accept
         };
         Ok(Judgement { verdict, metrics })
+    }
+
+    fn memory_bytes(&self) -> usize {
+        self.reference_moduli.capacity() * std::mem::size_of::<(f64, f64)>()
     }
 
     fn accepted(&mut self, _before: &ViewNd<'_, D>, after: &ViewNd<'_, D>, _dt: f64) {
