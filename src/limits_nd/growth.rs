@@ -31,7 +31,9 @@
 //! its own energy takes); one on the mpm88 jelly (`examples/mls_mpm --generic`, 1 612
 //! steps), none with the kept moduli (1 500). The moduli are taken again, and the history
 //! cleared, when the particle count changes; on a grid split over processes
-//! ([`ViewNd::split`]), where particles migrate, the view's own moduli are used. A solver
+//! ([`ViewNd::split`]), where particles migrate, the view's own moduli are used. They are
+//! kept by index: a stepper that reorders its particles between views (sorting them by
+//! cell, say) and whose particles differ in material should hand over its own energy. A solver
 //! with a stored-energy function may hand over its own elastic energy in
 //! [`crate::nd::SummaryNd::strain`] instead — any quantity that a stable run does not
 //! increase beyond a small oscillation (`examples/user_flip` hands over its neo-Hookean
