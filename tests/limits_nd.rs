@@ -311,5 +311,8 @@ fn the_growth_monitor_keeps_the_moduli_of_its_first_view() {
     monitor.propose(&first).expect("no opinion");
     let kept = monitor.energies(&stiffer);
     assert_eq!(kept, monitor.energies(&first));
-    assert!(kept.1 > 0.0 && own.1 < 0.5 * kept.1, "own {own:?}, kept {kept:?}");
+    assert!(
+        kept.1 > 0.0 && own.1 < 0.5 * kept.1,
+        "own {own:?}, kept {kept:?}"
+    );
 }

@@ -96,8 +96,12 @@ impl<const D: usize> GrowthNd<D> {
             self.history.clear();
         }
         self.reference_moduli.clear();
-        self.reference_moduli
-            .extend(view.lame_lambda.iter().copied().zip(view.lame_mu.iter().copied()));
+        self.reference_moduli.extend(
+            view.lame_lambda
+                .iter()
+                .copied()
+                .zip(view.lame_mu.iter().copied()),
+        );
     }
 
     /// `(E, K + U)` of a view (module docs), from the view's [`SummaryNd`] when the
