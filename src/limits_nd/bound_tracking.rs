@@ -47,10 +47,23 @@
 //! calls for `B` instead of Lanczos: within `drift` its positions are re-anchored and the
 //! estimate scaled. On a grid split over processes a guard's call refreshes, as before.
 //!
-//! **Not under APIC.** The APIC gain is measured on the refresh's top mode; carrying it
-//! with a calibrated estimate let the mpm88 fluid grow (22 growth detections at every
-//! drift from 0.1 to 0.5, against none for FLIP's analysis of the same scene), so under
-//! APIC the raw-bound policy below applies.
+//! **Under APIC: on solids only.** The APIC gain is measured on the refresh's top mode;
+//! carrying it with a calibrated estimate let the mpm88 fluid grow (22 growth detections
+//! at every drift from 0.1 to 0.5, against none for FLIP's analysis of the same scene),
+//! and a growth the monitor catches is not undone by a lower safety (measured: the fluid
+//! still stopped when the first detection switched the calibration off). What the
+//! calibration assumes — `B/λ` changes only where `B` does — rests on particles keeping
+//! their neighbours, as a solid's do while it translates and deforms; a fluid's particles
+//! rearrange freely (no shear stiffness), so the layout that sets `λmax` changes in ways
+//! a maximum over single particles does not see. Neither the ratio `B/λ` nor its drift
+//! tells the two mpm88 scenes apart (measured at the refreshes: fluid 1.05–1.87, jelly
+//! 1.45–2.18), so under APIC the calibrated bound is used while every refresh has found
+//! every particle with shear stiffness (`μ_t > 0`), and never again in the run after one
+//! that did not ([`BoundTracking::fluid_seen`]); before the first refresh, and after
+//! such a one, the raw-bound policy below applies. An interpretation, measured on the two
+//! mpm88 scenes (`examples/mls_mpm`, `docs/performance.md`): the jelly keeps its 1 500
+//! steps (0 rejected) with 30 Lanczos runs instead of 174; the fluid takes the raw-bound
+//! policy's steps bit for bit.
 //!
 //! # The raw-bound policy (`bound_drift < 0`, or APIC)
 //!
@@ -128,6 +141,10 @@ pub struct BoundTracking {
     pub scale: f64,
     /// Proposals made from the calibrated bound.
     pub calibrated_proposals: u64,
+    /// Whether some refresh under APIC has met a particle without shear stiffness
+    /// (`μ_t ≤ 0`: a fluid, module docs "Under APIC"); the calibrated bound is then off
+    /// for the rest of the run.
+    pub fluid_seen: bool,
 }
 
 impl BoundTracking {

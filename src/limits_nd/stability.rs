@@ -24,7 +24,10 @@
 //! have passed; the motion guard is then not read where the stepper supplies `B`, and on
 //! the generic path it calls for `B` instead of Lanczos ([`super::bound_tracking`]).
 //!
-//! **Bound mode** (with `bound_drift < 0`, and under APIC). At every refresh the element bound `B ≥ λmax`
+//! Under APIC the calibrated bound is used on solids only: while every refresh has found
+//! every particle with shear stiffness (`μ_t > 0`; [`super::bound_tracking`] "Under APIC").
+//!
+//! **Bound mode** (with `bound_drift < 0`, and under APIC otherwise). At every refresh the element bound `B ≥ λmax`
 //! ([`super::element_bound`]) of the same state is evaluated too. Where it is close to the
 //! Lanczos value (within `1 + bound_slack`; where the stepper supplies `B` from its own
 //! pass, also wherever the Lanczos products it saves outweigh the shorter step), the next
@@ -261,6 +264,13 @@ impl<const D: usize> StabilityNd<D> {
             TransferNd::Flip => (1.0, 0),
             TransferNd::Apic { inertia } => (apic_gain(view, &space, &r.vector, inertia), 0),
         };
+        if matches!(self.config.transfer, TransferNd::Apic { .. }) && !self.tracking.fluid_seen {
+            // Any particle without shear stiffness, on any process (bound_tracking,
+            // "Under APIC"): one pass over `μ_t` at a refresh, on APIC runs only.
+            let mine = view.lame_mu.iter().any(|&mu| !(mu > 0.0));
+            let (_, any) = Self::agreement(&*self.reduce, view).min_and_any(0.0, mine);
+            self.tracking.fluid_seen = any;
+        }
         self.gain = gain;
         self.ritz = r.vector;
         self.store_references(view);
@@ -381,10 +391,15 @@ impl<const D: usize> StabilityNd<D> {
         Ok((self.refresh(state, m_min, diag, looked)?, true))
     }
 
-    /// Whether the calibrated bound is on (`bound_drift ≥ 0`,
-    /// [`super::bound_tracking`]).
+    /// Whether the calibrated bound is on (`bound_drift ≥ 0`; under APIC only after a
+    /// refresh and while no refresh has met a particle without shear stiffness,
+    /// [`super::bound_tracking`] "Under APIC").
     fn calibrating(&self) -> bool {
-        self.config.bound_drift >= 0.0 && self.config.transfer == TransferNd::Flip
+        self.config.bound_drift >= 0.0
+            && match self.config.transfer {
+                TransferNd::Flip => true,
+                TransferNd::Apic { .. } => self.refreshes > 0 && !self.tracking.fluid_seen,
+            }
     }
 
     /// The largest `B/λ` stepped on ([`BoundTracking::threshold`]).
