@@ -320,3 +320,49 @@ fn steps_on_the_light_node_layout_stay_below_the_frozen_particle_limit() {
     );
     assert!(worst <= 1.0, "a step {worst}× the frozen-particle limit");
 }
+
+/// Under APIC the calibrated bound serves a solid (every particle with shear stiffness)
+/// and never a layout with one particle without it (a fluid), which keeps the raw-bound
+/// policy from its first refresh on (`limits_nd::bound_tracking`, "Under APIC").
+#[test]
+fn under_apic_the_calibrated_bound_serves_solids_only() {
+    use mpm_dt::limits_nd::TransferNd;
+    use mpm_dt::StepLimit;
+    let config = StabilityNdConfig {
+        transfer: TransferNd::Apic { inertia: 0.25 },
+        ..StabilityNdConfig::default()
+    };
+    let calibrated_of = |fluid: bool| {
+        let mut s = layout::<2>(8, ShapeNd::BSpline2, Boundary::Periodic, 0.3, 0.3, 11);
+        s.provide_summary(true);
+        let mut limit = StabilityNd::<2>::new(config.clone()).unwrap();
+        let mut calibrated = 0.0;
+        for _ in 0..30 {
+            let view = s.view();
+            let mut mu = view.lame_mu.to_vec();
+            if fluid {
+                mu[0] = 0.0;
+            }
+            let view = ViewNd {
+                lame_mu: &mu,
+                ..view
+            };
+            let proposal = limit.propose(&view).expect("a proposal");
+            calibrated = proposal
+                .metrics
+                .get("calibrated_proposals")
+                .copied()
+                .unwrap_or(0.0);
+            s.try_step(0.5 * proposal.dt)
+                .and_then(|_| s.accept())
+                .expect("a stable step");
+        }
+        calibrated
+    };
+    let solid = calibrated_of(false);
+    assert!(
+        solid >= 20.0,
+        "{solid} of 30 proposals calibrated on a solid"
+    );
+    assert_eq!(calibrated_of(true), 0.0);
+}
