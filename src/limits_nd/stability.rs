@@ -82,6 +82,7 @@
 mod full_map_gain;
 mod guard;
 mod guard_scan;
+mod policy;
 
 use super::bound_tracking::{view_supplies_bound, BoundTracking};
 use super::stability_config::StabilityNdConfig;
@@ -264,13 +265,7 @@ impl<const D: usize> StabilityNd<D> {
             TransferNd::Flip => (1.0, 0),
             TransferNd::Apic { inertia } => (apic_gain(view, &space, &r.vector, inertia), 0),
         };
-        if matches!(self.config.transfer, TransferNd::Apic { .. }) && !self.tracking.fluid_seen {
-            // Any particle without shear stiffness, on any process (bound_tracking,
-            // "Under APIC"): one pass over `μ_t` at a refresh, on APIC runs only.
-            let mine = view.lame_mu.iter().any(|&mu| !(mu > 0.0));
-            let (_, any) = Self::agreement(&*self.reduce, view).min_and_any(0.0, mine);
-            self.tracking.fluid_seen = any;
-        }
+        self.note_fluid(view);
         self.gain = gain;
         self.ritz = r.vector;
         self.store_references(view);
@@ -389,52 +384,6 @@ impl<const D: usize> StabilityNd<D> {
             looked = Some(bound);
         }
         Ok((self.refresh(state, m_min, diag, looked)?, true))
-    }
-
-    /// Whether the calibrated bound is on (`bound_drift ≥ 0`; under APIC only after a
-    /// refresh and while no refresh has met a particle without shear stiffness,
-    /// [`super::bound_tracking`] "Under APIC").
-    fn calibrating(&self) -> bool {
-        self.config.bound_drift >= 0.0
-            && match self.config.transfer {
-                TransferNd::Flip => true,
-                TransferNd::Apic { .. } => self.refreshes > 0 && !self.tracking.fluid_seen,
-            }
-    }
-
-    /// The largest `B/λ` stepped on ([`BoundTracking::threshold`]).
-    ///
-    /// The cost model is applied to FLIP only: under APIC the step carries the transfer's
-    /// gain measured on the last refresh's top mode, which says nothing of the modes a
-    /// loose bound covers (measured: on the mpm88 fluid, stepping on bounds up to 1.9× the
-    /// Lanczos value with that gain was stopped by 22 growth detections; within 1.25× it
-    /// runs to the end without a rejection).
-    fn bound_threshold(&self, view: &ViewNd<'_, D>) -> f64 {
-        let supplied = view_supplies_bound(view) && self.config.transfer == TransferNd::Flip;
-        self.tracking
-            .threshold(self.config.bound_slack, self.config.product_cost, supplied)
-    }
-
-    /// In bound mode ([`super::bound_tracking`]), the current state's element bound, while
-    /// it is finite and the last Lanczos run is younger than `bound_age`; `None` ends
-    /// bound mode (a refresh follows).
-    fn bound_proposal(&mut self, view: &ViewNd<'_, D>) -> Option<f64> {
-        if !self.tracking.active || self.lambda.is_none() {
-            return None;
-        }
-        if self.age >= self.config.bound_age {
-            self.tracking.active = false;
-            return None;
-        }
-        let bound = self
-            .tracking
-            .bound_of(view, Self::agreement(&*self.reduce, view));
-        if bound.is_finite() && bound > 0.0 {
-            Some(bound)
-        } else {
-            self.tracking.active = false;
-            None
-        }
     }
 
     /// The metrics of a proposal: `λmax` used, and how it was obtained.
