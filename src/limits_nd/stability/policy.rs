@@ -61,7 +61,8 @@ impl<const D: usize> StabilityNd<D> {
         if self.config.transfer == TransferNd::Flip || self.tracking.fluid_seen {
             return;
         }
-        let mine = view.lame_mu.iter().any(|&mu| !(mu > 0.0));
+        // `μ_t ≤ 0` or not a number.
+        let mine = view.lame_mu.iter().any(|&mu| mu.is_nan() || mu <= 0.0);
         let (_, any) = Self::agreement(&*self.reduce, view).min_and_any(0.0, mine);
         self.tracking.fluid_seen = any;
     }
