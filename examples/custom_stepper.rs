@@ -307,6 +307,7 @@ fn main() -> ExitCode {
         "steps_rejected": stats.rejected,
         "binding": stats.binding,
         "dt_min": stats.dt_min,
+        "dt_min_chosen": stats.dt_min_chosen,
         "dt_mean": stats.dt_mean(),
         "dt_max": stats.dt_max,
     });

@@ -199,7 +199,7 @@ fn run_controlled(scene: Scene) -> ControlledRun {
         steps: stats.accepted,
         rejected: stats.rejected,
         dt_mean: stats.dt_mean().unwrap_or(f64::NAN),
-        dt_min: stats.dt_min.unwrap_or(f64::NAN),
+        dt_min: stats.dt_min_chosen.or(stats.dt_min).unwrap_or(f64::NAN),
         wall_s,
         error,
         refreshes,

@@ -237,8 +237,9 @@ impl PyController {
     }
 
     /// Advances ``stepper`` to ``t_end`` and returns the controller's statistics (since it
-    /// was made) as a dict: ``steps_accepted``, ``steps_rejected``, ``dt_mean``, ``dt_min``,
-    /// ``dt_max``, ``t_final``, ``binding`` (accepted steps per bound that set ``dt``),
+    /// was made) as a dict: ``steps_accepted``, ``steps_rejected``, ``dt_mean``, ``dt_min``
+    /// (the last step, cut to land on ``t_end``, included), ``dt_min_chosen`` (without the
+    /// steps cut to land on ``t_end``), ``dt_max``, ``t_final``, ``binding`` (accepted steps per bound that set ``dt``),
     /// ``rejected_by_cause``, ``growth_events``.
     #[pyo3(signature = (stepper, t_end, on_decision = None))]
     fn run_until<'py>(

@@ -51,6 +51,7 @@ pub fn summary_dict<'py>(py: Python<'py>, s: &Stats, t_final: f64) -> PyResult<B
     d.set_item("steps_rejected", s.rejected)?;
     d.set_item("dt_mean", s.dt_mean())?;
     d.set_item("dt_min", s.dt_min)?;
+    d.set_item("dt_min_chosen", s.dt_min_chosen)?;
     d.set_item("dt_max", s.dt_max)?;
     d.set_item("t_final", t_final)?;
     let binding = PyDict::new(py);

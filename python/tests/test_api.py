@@ -29,6 +29,9 @@ def test_run_until_reaches_t_end_and_summarises(bar: Any) -> None:
     assert summary["dt_min"] <= summary["dt_mean"] <= summary["dt_max"]
     assert sum(summary["binding"].values()) == summary["steps_accepted"]
     accepted = [d for d in decisions if d["outcome"] == "accepted"]
+    chosen = [d["dt"] for d in accepted if d["binding"] != "t_end"]
+    assert summary["dt_min_chosen"] == min(chosen)
+    assert summary["dt_min"] == min(d["dt"] for d in accepted)
     assert len(accepted) == summary["steps_accepted"]
     # The steps add up to the time covered.
     assert sum(d["dt"] for d in accepted) == pytest.approx(0.05, rel=1e-9)

@@ -1,7 +1,7 @@
 //! Run statistics: accepted steps, rejections by cause, which bound set `dt` how often, and
 //! the range of accepted steps.
 
-use super::decision::{Decision, Outcome};
+use super::decision::{bound, Decision, Outcome};
 use crate::limit::RejectCause;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -20,8 +20,16 @@ pub struct Stats {
     /// Accepted steps by what bound their `dt` (limit name or a [`super::bound`] name).
     pub binding: BTreeMap<String, u64>,
     /// Smallest accepted step, the last step of a run (cut to land on `t_end`) included;
-    /// `None` before the first.
+    /// `None` before the first. See [`Self::dt_min_chosen`] for the smallest step the
+    /// limits chose.
     pub dt_min: Option<f64>,
+    /// Smallest accepted step that was not cut to land on `t_end` (binding other than
+    /// [`bound::T_END`]): the smallest step the limits and the controller's own
+    /// rules chose. `None` before the first such step (a run of one step that lands on
+    /// `t_end` has none). Absent from checkpoints written before it existed (read as
+    /// `None`, then filled from the next step on).
+    #[serde(default)]
+    pub dt_min_chosen: Option<f64>,
     /// Largest accepted step; `None` before the first.
     pub dt_max: Option<f64>,
     /// Sum of accepted steps (for the mean).
@@ -44,6 +52,9 @@ impl Stats {
                     }
                 }
                 self.dt_min = Some(self.dt_min.map_or(d.dt, |m| m.min(d.dt)));
+                if d.binding != bound::T_END {
+                    self.dt_min_chosen = Some(self.dt_min_chosen.map_or(d.dt, |m| m.min(d.dt)));
+                }
                 self.dt_max = Some(self.dt_max.map_or(d.dt, |m| m.max(d.dt)));
                 self.dt_sum += d.dt;
             }
@@ -62,5 +73,44 @@ impl Stats {
     /// Mean accepted step; `None` before the first.
     pub fn dt_mean(&self) -> Option<f64> {
         (self.accepted > 0).then(|| self.dt_sum / self.accepted as f64)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn accepted(dt: f64, binding: &str) -> Decision {
+        Decision {
+            step: 0,
+            attempt: 0,
+            t: 0.0,
+            dt,
+            limits: Vec::new(),
+            filter_dt: None,
+            binding: binding.into(),
+            bound58: None,
+            lambda_max: None,
+            dsm: None,
+            outcome: Outcome::Accepted,
+            cause: None,
+            rejected_by: None,
+            message: None,
+        }
+    }
+
+    /// `dt_min` counts the last step cut to land on `t_end`; `dt_min_chosen` does not.
+    #[test]
+    fn the_landing_step_counts_in_dt_min_only() {
+        let mut stats = Stats::default();
+        stats.record(&accepted(0.5, "stability"));
+        stats.record(&accepted(0.3, "hold"));
+        assert_eq!(stats.dt_min_chosen, Some(0.3));
+        stats.record(&accepted(0.01, bound::T_END));
+        assert_eq!(stats.dt_min, Some(0.01));
+        assert_eq!(stats.dt_min_chosen, Some(0.3));
+        let mut one = Stats::default();
+        one.record(&accepted(0.01, bound::T_END));
+        assert_eq!((one.dt_min, one.dt_min_chosen), (Some(0.01), None));
     }
 }
