@@ -10,7 +10,7 @@
 //! every particle on its own and the top mode sits on the few particles of a splash; 1.3–3
 //! for GIMP bodies; 3–8 for 3D GIMP and B-spline waves.
 //!
-//! # The calibrated bound (the default under FLIP)
+//! # The calibrated bound (the default under FLIP, and under APIC on solids)
 //!
 //! At every Lanczos refresh the bound of the same state is evaluated beside the Lanczos
 //! value `λ_L`, `B_L ≥ λ_L`. Until the next refresh the limit proposes from

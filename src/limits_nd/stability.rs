@@ -17,7 +17,7 @@
 //!
 //! and between refreshes proposes from the cached value, scaled for the moduli's growth.
 //!
-//! **The calibrated bound** (the default under FLIP). At every refresh the element bound
+//! **The calibrated bound** (the default under FLIP, and under APIC on solids). At every refresh the element bound
 //! `B ≥ λmax` ([`super::element_bound`]) of the same state is evaluated too, and between
 //! refreshes the proposal is the Lanczos value scaled by `B`'s rise since then,
 //! `λ_L·max(r, B/B_L)`, until `B` has drifted by `bound_drift` or `bound_age` proposals

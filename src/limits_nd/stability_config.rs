@@ -60,8 +60,8 @@ pub struct StabilityNdConfig {
     pub product_cost: f64,
     /// Between Lanczos refreshes, track `λmax` by the element bound calibrated at the last
     /// one, `λ ≈ λ_L · B/B_L`, while `B` stays within this relative drift of `B_L`
-    /// (default 0.5; negative: off, the raw-bound policy of `bound_slack` instead),
-    /// [`crate::limits_nd::bound_tracking`].
+    /// (default 0.5; negative: off, the raw-bound policy of `bound_slack` instead; under
+    /// APIC on solids only), [`crate::limits_nd::bound_tracking`].
     pub bound_drift: f64,
     /// Propose from the critical step of the whole linearised FLIP step instead of its
     /// stress part (default `false`): `dt = safety · √(2/λ*)`, `λ* = λmax(A_s(I − Q_s/2))`
