@@ -66,10 +66,28 @@ pub(crate) fn axis_factors_as<const D: usize, S: AxisShape>(
     x: &Vector<D>,
     l: &Vector<D>,
 ) -> Option<[AxisFactors; D]> {
+    let inv_h: [f64; D] = std::array::from_fn(|a| 1.0 / grid.h[a]);
+    let inv_l: [f64; D] = std::array::from_fn(|a| 1.0 / l[a]);
+    axis_factors_inv::<D, S>(grid, strides, &inv_h, x, l, &inv_l)
+}
+
+/// [`axis_factors_as`] with the reciprocals of the spacings `inv_h[a] = 1/h_a` and of the
+/// GIMP domain `inv_l[a] = 1/l_a` given ([`AxisShape::stencil_inv`]): a pass forms `1/h`
+/// once and a particle's `1/l` once for its gather and its scatter. The same factors, bit
+/// for bit.
+#[inline(always)]
+pub(crate) fn axis_factors_inv<const D: usize, S: AxisShape>(
+    grid: &GridNd<D>,
+    strides: &[usize; D],
+    inv_h: &[f64; D],
+    x: &Vector<D>,
+    l: &Vector<D>,
+    inv_l: &[f64; D],
+) -> Option<[AxisFactors; D]> {
     let n_axis = S::NODES;
     let mut out = [AxisFactors::default(); D];
     for (a, f) in out.iter_mut().enumerate() {
-        let st = S::stencil(x[a] - grid.origin[a], l[a], grid.h[a]);
+        let st = S::stencil_inv(x[a] - grid.origin[a], l[a], grid.h[a], inv_l[a], inv_h[a]);
         f.s = st.s;
         f.d = st.d;
         if grid.boundary[a] == Boundary::Periodic {

@@ -75,7 +75,15 @@ pub(crate) trait AxisShape {
     /// Nodes per axis ([`ShapeNd::nodes_per_axis`]).
     const NODES: usize;
     /// [`ShapeNd::axis`] of this shape.
-    fn stencil(x: f64, l: f64, h: f64) -> AxisStencil;
+    #[inline(always)]
+    fn stencil(x: f64, l: f64, h: f64) -> AxisStencil {
+        Self::stencil_inv(x, l, h, 1.0 / l, 1.0 / h)
+    }
+    /// [`Self::stencil`] with the reciprocals `inv_l = 1/l` and `inv_h = 1/h` given, so
+    /// that a pass forms them once per particle (`1/l`, used by its gather and its
+    /// scatter) or once per grid (`1/h`) rather than per stencil: the same quotients, so
+    /// the same weights bit for bit.
+    fn stencil_inv(x: f64, l: f64, h: f64, inv_l: f64, inv_h: f64) -> AxisStencil;
 }
 
 /// uGIMP ([`ShapeNd::Gimp`]).
@@ -102,9 +110,7 @@ pub(crate) struct BSplineAxis;
 impl AxisShape for GimpAxis {
     const NODES: usize = 3;
     #[inline(always)]
-    fn stencil(x: f64, l: f64, h: f64) -> AxisStencil {
-        let inv_h = 1.0 / h;
-        let inv_l = 1.0 / l;
+    fn stencil_inv(x: f64, l: f64, h: f64, inv_l: f64, inv_h: f64) -> AxisStencil {
         let h_over_l = h * inv_l;
         let qa = (x - 0.5 * l) * inv_h;
         let first = crate::shape::floor(qa);
@@ -127,7 +133,7 @@ impl AxisShape for GimpAxis {
 impl AxisShape for LinearAxis {
     const NODES: usize = 2;
     #[inline(always)]
-    fn stencil(x: f64, l: f64, h: f64) -> AxisStencil {
+    fn stencil_inv(x: f64, l: f64, h: f64, _: f64, _: f64) -> AxisStencil {
         let st = Shape::Linear.stencil(x, l, h);
         AxisStencil {
             first: st.first,
@@ -140,8 +146,7 @@ impl AxisShape for LinearAxis {
 impl AxisShape for BSplineAxis {
     const NODES: usize = 3;
     #[inline(always)]
-    fn stencil(x: f64, _: f64, h: f64) -> AxisStencil {
-        let inv_h = 1.0 / h;
+    fn stencil_inv(x: f64, _: f64, _: f64, _: f64, inv_h: f64) -> AxisStencil {
         let q = x * inv_h;
         let base = crate::shape::floor(q - 0.5);
         let f = q - base; // in [0.5, 1.5)

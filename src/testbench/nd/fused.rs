@@ -10,12 +10,13 @@
 //! [`kernels::particle_to_grid`]. A run whose particles move between processes between the
 //! two passes (a grid split into slabs) cannot fuse them and takes the two passes.
 
+use super::material::LameCache;
 use super::threaded::{threaded_step, ThreadScratch};
 use super::update::{self, Committed, ParticleFault, Written};
 use super::MaterialNd;
 use crate::nd::factor_metric::ParticleBounds;
 use crate::nd::factors::{visit_row_with, RowVisitor};
-use crate::nd::kernels::axis_factors_as;
+use crate::nd::kernels::axis_factors_inv;
 use crate::nd::shape::{AxisShape, BSplineAxis, GimpAxis, LinearAxis};
 use crate::nd::{GridNd, ShapeNd, SummaryNd, Tensor, Vector};
 
@@ -165,8 +166,13 @@ fn fused_step_as<const D: usize, S: AxisShape>(
         summary: SummaryNd::zero(true),
         unformed: None,
     };
+    // `1/h` once for the pass, `1/l` once for a particle's two stencils, the Lamé pair
+    // once per run of one material: the same quotients as formed where they are used.
+    let inv_h: [f64; D] = std::array::from_fn(|a| 1.0 / grid.h[a]);
+    let mut lame = LameCache::default();
     for p in 0..from.x.len() {
         let domain = &inputs.domain[p];
+        let inv_l: [f64; D] = std::array::from_fn(|a| 1.0 / domain[a]);
         // Grid → particle from the committed position's stencil.
         let mut gather = Gather {
             node_a: from.node_a,
@@ -174,14 +180,17 @@ fn fused_step_as<const D: usize, S: AxisShape>(
             acc: Vector::<D>::zeros(),
             l: Tensor::<D>::zeros(),
         };
-        if let Some(f) = axis_factors_as::<D, S>(grid, &strides, &from.x[p], domain) {
+        if let Some(f) =
+            axis_factors_inv::<D, S>(grid, &strides, &inv_h, &from.x[p], domain, &inv_l)
+        {
             visit_row_with(&f, n_axis, &mut gather);
         }
         let (acc, l) = (gather.acc, gather.l);
         let material = &inputs.material[p];
+        let lame_p = lame.get(material);
         let u = update::update_particle(
             grid,
-            material,
+            (material, lame_p),
             p,
             (&from.x[p], &from.v[p], &from.f[p], &from.sigma[p]),
             (&acc, &l),
@@ -197,16 +206,16 @@ fn fused_step_as<const D: usize, S: AxisShape>(
         let density = mp / (u.det_f * vol0);
         let moduli = match (inputs.constant_moduli, into.moduli.as_mut()) {
             (_, Some((lambda, mu))) => {
-                (lambda[p], mu[p]) = material.tangent(u.det_f);
+                (lambda[p], mu[p]) = material.tangent_with(lame_p, u.det_f);
                 (lambda[p], mu[p])
             }
             (Some((lambda, mu)), None) => (lambda[p], mu[p]),
             (None, None) => (f64::NAN, f64::NAN),
         };
         // Particle → grid at the new position, as `kernels::particle_to_grid` adds it.
-        let factors = axis_factors_as::<D, S>(grid, &strides, &u.x, domain);
+        let factors = axis_factors_inv::<D, S>(grid, &strides, &inv_h, &u.x, domain, &inv_l);
         let mv = u.v * mp;
-        let vol = crate::nd::det(&u.f) * vol0;
+        let vol = u.det_f * vol0; // `det_f` is `det(F)` of the new `F`
         let vs = u.sigma * (-vol);
         if let Some(b) = bounds.as_deref_mut() {
             b.add_values(

@@ -72,7 +72,13 @@ impl MaterialNd {
     /// Tangent Lamé moduli `(λ_t, μ_t)` at a state with `det F = j` (module docs).
     #[inline]
     pub fn tangent(&self, j: f64) -> (f64, f64) {
-        let (l, m) = self.lame();
+        self.tangent_with(self.lame(), j)
+    }
+
+    /// [`Self::tangent`] with the material's [`Self::lame`] pair `(l, m)` given (formed
+    /// once for a run of particles of one material: [`LameCache`]).
+    #[inline]
+    pub(super) fn tangent_with(&self, (l, m): (f64, f64), j: f64) -> (f64, f64) {
         match self {
             MaterialNd::LinearElastic { .. } => (l, m),
             MaterialNd::NeoHookean { .. } => (l / j, (m - l * j.ln()) / j),
@@ -89,7 +95,19 @@ impl MaterialNd {
         f_new: &Tensor<D>,
         dt: f64,
     ) -> Tensor<D> {
-        let (lambda, mu) = self.lame();
+        self.update_with(self.lame(), sigma_old, l, f_new, dt)
+    }
+
+    /// [`Self::update`] with the material's [`Self::lame`] pair given ([`LameCache`]).
+    #[inline]
+    pub(super) fn update_with<const D: usize>(
+        &self,
+        (lambda, mu): (f64, f64),
+        sigma_old: &Tensor<D>,
+        l: &Tensor<D>,
+        f_new: &Tensor<D>,
+        dt: f64,
+    ) -> Tensor<D> {
         match self {
             MaterialNd::LinearElastic { .. } => {
                 let eps = (l + l.transpose()) * 0.5;
@@ -135,4 +153,35 @@ impl MaterialNd {
         let (e, nu) = (self.youngs_modulus(), self.poisson_ratio());
         e.is_finite() && e > 0.0 && nu.is_finite() && (0.0..0.5).contains(&nu)
     }
+}
+
+/// The Lamé pair of the last material asked for: a pass over particles of few materials
+/// forms `λ = Eν/((1+ν)(1−2ν))`, `μ = E/(2(1+ν))` (two divisions) once per run of
+/// particles of one material instead of once per particle, the same numbers bit for bit.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct LameCache {
+    last: Option<(MaterialNd, (f64, f64))>,
+}
+
+impl LameCache {
+    /// `material.lame()`, formed anew only when `material` differs from the last one.
+    #[inline(always)]
+    pub fn get(&mut self, material: &MaterialNd) -> (f64, f64) {
+        match self.last {
+            Some((m, lame)) if same(&m, material) => lame,
+            _ => {
+                let lame = material.lame();
+                self.last = Some((*material, lame));
+                lame
+            }
+        }
+    }
+}
+
+/// The same material bit for bit (not `==`: `ν = −0` and `ν = 0` give `λ` of two signs).
+#[inline(always)]
+fn same(a: &MaterialNd, b: &MaterialNd) -> bool {
+    std::mem::discriminant(a) == std::mem::discriminant(b)
+        && a.youngs_modulus().to_bits() == b.youngs_modulus().to_bits()
+        && a.poisson_ratio().to_bits() == b.poisson_ratio().to_bits()
 }

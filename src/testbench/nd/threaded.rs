@@ -27,15 +27,18 @@
 //! (its slab and its place in the sorted order).
 
 use super::fused::{FusedInputs, FusedOutcome, Gather, NodalSums};
+use super::material::LameCache;
 use super::update::{update_particle, Committed, ParticleFault, Written};
 use crate::nd::factor_metric::ParticleBounds;
 use crate::nd::factors::{visit_row_with, RowVisitor};
-use crate::nd::kernels::axis_factors_as;
+use crate::nd::kernels::axis_factors_inv;
 use crate::nd::shape::AxisShape;
-use crate::nd::{GridNd, SummaryNd, Tensor, Vector};
+use crate::nd::{SummaryNd, Tensor, Vector};
 use rayon::prelude::*;
+use slabs::Slabs;
 use sort::sort_by_slab;
 
+mod slabs;
 mod sort;
 
 /// Particles per chunk of the grid → particle phase.
@@ -63,54 +66,6 @@ impl ThreadScratch {
     pub fn memory_bytes(&self) -> usize {
         4 * (self.slab_of.capacity() + self.order.capacity())
             + std::mem::size_of::<usize>() * self.starts.capacity()
-    }
-}
-
-/// The slabs of a grid across its last axis: cell boundaries `bounds[s] … bounds[s + 1]`.
-struct Slabs {
-    origin: f64,
-    inv_h: f64,
-    cells: usize,
-    bounds: Vec<usize>,
-}
-
-impl Slabs {
-    /// A multiple of [`COLOURS`] slabs of at least [`MIN_SLAB_CELLS`] cells, or one slab
-    /// where the last axis is too short for that.
-    fn of<const D: usize>(grid: &GridNd<D>) -> Self {
-        let cells = grid.cells[D - 1];
-        let count = (cells / MIN_SLAB_CELLS).min(MAX_SLABS) / COLOURS * COLOURS;
-        let count = count.max(1);
-        Self {
-            origin: grid.origin[D - 1],
-            inv_h: 1.0 / grid.h[D - 1],
-            cells,
-            bounds: (0..=count).map(|s| s * cells / count).collect(),
-        }
-    }
-
-    fn count(&self) -> usize {
-        self.bounds.len() - 1
-    }
-
-    /// The slab of a particle at `x_last` along the last axis (clamped into the grid).
-    #[inline]
-    fn slab_of(&self, x_last: f64) -> u32 {
-        let c = crate::shape::floor((x_last - self.origin) * self.inv_h);
-        let c = if c > 0.0 {
-            (c as usize).min(self.cells - 1)
-        } else {
-            0
-        };
-        let count = self.count();
-        let mut s = c * count / self.cells;
-        while s + 1 < count && self.bounds[s + 1] <= c {
-            s += 1;
-        }
-        while self.bounds[s] > c {
-            s -= 1;
-        }
-        s as u32
     }
 }
 
@@ -274,6 +229,8 @@ fn update_chunk<const D: usize, S: AxisShape>(
         mut moduli,
         slab_of,
     } = chunk;
+    let inv_h: [f64; D] = std::array::from_fn(|a| 1.0 / grid.h[a]);
+    let mut lame = LameCache::default();
     for k in 0..x.len() {
         let p = start + k;
         let mut gather = Gather {
@@ -283,12 +240,17 @@ fn update_chunk<const D: usize, S: AxisShape>(
             l: Tensor::<D>::zeros(),
         };
         let domain = &inputs.domain[p];
-        if let Some(fs) = axis_factors_as::<D, S>(grid, &strides, &from.x[p], domain) {
+        let inv_l: [f64; D] = std::array::from_fn(|a| 1.0 / domain[a]);
+        if let Some(fs) =
+            axis_factors_inv::<D, S>(grid, &strides, &inv_h, &from.x[p], domain, &inv_l)
+        {
             visit_row_with(&fs, S::NODES, &mut gather);
         }
         let material = &inputs.material[p];
         let old = (&from.x[p], &from.v[p], &from.f[p], &from.sigma[p]);
-        let u = match update_particle(grid, material, p, old, (&gather.acc, &gather.l), inputs.dt) {
+        let lame_p = lame.get(material);
+        let gathered = (&gather.acc, &gather.l);
+        let u = match update_particle(grid, (material, lame_p), p, old, gathered, inputs.dt) {
             Ok(u) => u,
             Err(fault) => {
                 totals.fault = Some(fault);
@@ -302,7 +264,7 @@ fn update_chunk<const D: usize, S: AxisShape>(
             totals.first_moment += u.x * mp;
         }
         if let Some((lambda, mu)) = moduli.as_mut() {
-            (lambda[k], mu[k]) = material.tangent(u.det_f);
+            (lambda[k], mu[k]) = material.tangent_with(lame_p, u.det_f);
         }
         slab_of[k] = slabs.slab_of(u.x[D - 1]);
         density[k] = mp / (u.det_f * vol0);
@@ -437,11 +399,14 @@ unsafe fn scatter_slab<const D: usize, S: AxisShape>(
     let h: [f64; D] = std::array::from_fn(|a| grid.h[a]);
     let mut bounds = with_bounds.then(|| ParticleBounds::detached(h));
     let mut unformed = None;
+    let inv_h: [f64; D] = std::array::from_fn(|a| 1.0 / grid.h[a]);
     for &p in particles {
         let p = p as usize;
         let (mp, vol0) = (inputs.mass[p], inputs.volume0[p]);
         let (x, v, f, sigma) = (&into.x[p], &into.v[p], &into.f[p], &into.sigma[p]);
-        let factors = axis_factors_as::<D, S>(grid, &strides, x, &inputs.domain[p]);
+        let l = &inputs.domain[p];
+        let inv_l: [f64; D] = std::array::from_fn(|a| 1.0 / l[a]);
+        let factors = axis_factors_inv::<D, S>(grid, &strides, &inv_h, x, l, &inv_l);
         let vol = crate::nd::det(f) * vol0;
         if let Some(b) = bounds.as_mut() {
             let moduli = match (&into.moduli, inputs.constant_moduli) {

@@ -3,6 +3,7 @@
 //! updated fields) and the nodal sums of a run split over processes (the library's own
 //! kernels — weights, particle → grid — are in [`crate::nd::kernels`]).
 
+use super::material::LameCache;
 use super::MaterialNd;
 use crate::grid::Boundary;
 use crate::nd::{GridNd, SummaryNd, Tensor, Vector, ViewWeightsNd};
@@ -59,6 +60,7 @@ pub(super) fn grid_to_particle<const D: usize>(
     summarize: bool,
 ) -> Result<SummaryNd<D>, ParticleFault> {
     let mut summary = SummaryNd::zero(true);
+    let mut lame = LameCache::default();
     for p in 0..from.x.len() {
         // The row formed on the stack first: a visitor's closure this large is not
         // inlined into the unrolled stencil loop.
@@ -72,9 +74,10 @@ pub(super) fn grid_to_particle<const D: usize>(
             }
             (acc, l)
         });
+        let lame_p = lame.get(&material[p]);
         let u = update_particle(
             grid,
-            &material[p],
+            (&material[p], lame_p),
             p,
             (&from.x[p], &from.v[p], &from.f[p], &from.sigma[p]),
             (&acc, &l),
@@ -92,7 +95,7 @@ pub(super) fn grid_to_particle<const D: usize>(
         into.sigma[p] = sigma;
         into.density[p] = mass[p] / (j * volume0[p]);
         if let Some((lambda, mu)) = into.moduli.as_mut() {
-            (lambda[p], mu[p]) = material[p].tangent(j);
+            (lambda[p], mu[p]) = material[p].tangent_with(lame_p, j);
         }
     }
     Ok(summary)
@@ -108,13 +111,14 @@ pub(super) struct Updated<const D: usize> {
     pub det_f: f64,
 }
 
-/// Particle `p`'s update from its committed `(x, v, F, σ)` = `old` and the grid's
+/// Particle `p`'s update (of `material` with its Lamé pair [`MaterialNd::lame`]) from its
+/// committed `(x, v, F, σ)` = `old` and the grid's
 /// `(Σ S a_i, Σ v_iⁿ⁺¹ ⊗ ∇S)` = `gathered` ([`grid_to_particle`]'s docs): the new
 /// velocity, `F`, stress and position (wrapped or put back on a wall), every value checked.
 #[inline(always)]
 pub(super) fn update_particle<const D: usize>(
     grid: &GridNd<D>,
-    material: &MaterialNd,
+    (material, lame): (&MaterialNd, (f64, f64)),
     p: usize,
     old: (&Vector<D>, &Vector<D>, &Tensor<D>, &Tensor<D>),
     (acc, l): (&Vector<D>, &Tensor<D>),
@@ -123,7 +127,7 @@ pub(super) fn update_particle<const D: usize>(
     let (x_old, v_old, f_old, sigma_old) = old;
     let mut v = *v_old + acc * dt;
     let f = *f_old + l * *f_old * dt;
-    let sigma = material.update(sigma_old, l, &f, dt);
+    let sigma = material.update_with(lame, sigma_old, l, &f, dt);
     let mut x = *x_old + v * dt;
     for a in 0..D {
         let (lo, len) = (grid.origin[a], grid.length(a));
