@@ -321,52 +321,76 @@ fn steps_on_the_light_node_layout_stay_below_the_frozen_particle_limit() {
     assert!(worst <= 1.0, "a step {worst}× the frozen-particle limit");
 }
 
-/// Under APIC the calibrated bound serves a solid (every particle with shear stiffness)
-/// and never a layout with one particle without it (a fluid), which keeps the raw-bound
-/// policy from its first refresh on (`limits_nd::bound_tracking`, "Under APIC").
-#[test]
-fn under_apic_the_calibrated_bound_serves_solids_only() {
+/// Per proposal of an APIC stability limit driven along a jittered B-spline layout: the
+/// running counts of Lanczos refreshes and of calibrated proposals. From step
+/// `fluid_from` on, particle 0 reports no shear stiffness (`μ_t = 0`); `summary`: the
+/// stepper supplies the element bound (else the generic path).
+fn apic_counts(fluid_from: usize, summary: bool, steps: usize) -> Vec<(f64, f64)> {
     use mpm_dt::limits_nd::TransferNd;
     use mpm_dt::StepLimit;
     let config = StabilityNdConfig {
         transfer: TransferNd::Apic { inertia: 0.25 },
+        // A refresh every 10 proposals at most: the fluid check runs at refreshes.
+        max_age: 10,
         ..StabilityNdConfig::default()
     };
-    let calibrated_of = |fluid: bool| {
-        let mut s = layout::<2>(8, ShapeNd::BSpline2, Boundary::Periodic, 0.3, 0.3, 11);
-        s.provide_summary(true);
-        let mut limit = StabilityNd::<2>::new(config.clone()).unwrap();
-        let mut calibrated = 0.0;
-        for _ in 0..30 {
-            let view = s.view();
-            let mut mu = view.lame_mu.to_vec();
-            if fluid {
-                mu[0] = 0.0;
-            }
-            let view = ViewNd {
-                lame_mu: &mu,
-                ..view
-            };
-            let proposal = limit.propose(&view).expect("a proposal");
-            calibrated = proposal
-                .metrics
-                .get("calibrated_proposals")
-                .copied()
-                .unwrap_or(0.0);
-            s.try_step(0.5 * proposal.dt)
-                .and_then(|_| s.accept())
-                .expect("a stable step");
+    let mut s = layout::<2>(8, ShapeNd::BSpline2, Boundary::Periodic, 0.3, 0.3, 11);
+    s.provide_summary(summary);
+    let mut limit = StabilityNd::<2>::new(config).unwrap();
+    let (mut refreshes, mut calibrated) = (0.0, 0.0);
+    let mut counts = Vec::new();
+    for step in 0..steps {
+        let view = s.view();
+        let mut mu = view.lame_mu.to_vec();
+        if step >= fluid_from {
+            mu[0] = 0.0;
         }
-        calibrated
-    };
-    let solid = calibrated_of(false);
+        let view = ViewNd {
+            lame_mu: &mu,
+            ..view
+        };
+        let proposal = limit.propose(&view).expect("a proposal");
+        let of = |key: &str, last: f64| proposal.metrics.get(key).copied().unwrap_or(last);
+        refreshes = of("refreshes", refreshes);
+        calibrated = of("calibrated_proposals", calibrated);
+        counts.push((refreshes, calibrated));
+        s.try_step(0.5 * proposal.dt)
+            .and_then(|_| s.accept())
+            .expect("a stable step");
+    }
+    counts
+}
+
+/// Under APIC the calibrated bound serves a solid (every particle with shear stiffness)
+/// and never a layout with one particle without it (a fluid), which keeps the raw-bound
+/// policy from its first refresh on; a solid that turns fluid mid-run stops calibrating
+/// at the next refresh, for good, on either path (`limits_nd::bound_tracking`, "Under
+/// APIC").
+#[test]
+fn under_apic_the_calibrated_bound_serves_solids_only() {
+    let solid = apic_counts(usize::MAX, true, 30).last().unwrap().1;
     assert!(
         solid >= 20.0,
         "{solid} of 30 proposals calibrated on a solid"
     );
-    let fluid = calibrated_of(true);
+    let fluid = apic_counts(0, true, 30).last().unwrap().1;
     assert!(
         fluid < 0.5,
         "{fluid} proposals calibrated with a fluid particle"
     );
+    for summary in [true, false] {
+        let counts = apic_counts(20, summary, 90);
+        assert!(counts[19].1 >= 10.0, "solid phase: {:?}", counts[19]);
+        // The first refresh at or after the switch, and no calibrated proposal after it.
+        let at = (20..counts.len())
+            .find(|&k| counts[k].0 > counts[k - 1].0)
+            .unwrap_or_else(|| panic!("no refresh after the switch: {counts:?}"));
+        let last = counts.last().unwrap();
+        assert_eq!(
+            last.1.to_bits(),
+            counts[at].1.to_bits(),
+            "summary {summary}: calibrated proposals after the refresh at {at}: {counts:?}"
+        );
+        assert!(last.0 > counts[19].0);
+    }
 }

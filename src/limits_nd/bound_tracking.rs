@@ -50,8 +50,8 @@
 //! **Under APIC: on solids only.** The APIC gain is measured on the refresh's top mode;
 //! carrying it with a calibrated estimate let the mpm88 fluid grow (22 growth detections
 //! at every drift from 0.1 to 0.5, against none for FLIP's analysis of the same scene),
-//! and a growth the monitor catches is not undone by a lower safety (measured: the fluid
-//! still stopped when the first detection switched the calibration off). What the
+//! and a growth the monitor catches is not undone by a lower safety (measured: switching
+//! the calibration off at the first detection does not save the fluid). What the
 //! calibration assumes — `B/λ` changes only where `B` does — rests on particles keeping
 //! their neighbours, as a solid's do while it translates and deforms; a fluid's particles
 //! rearrange freely (no shear stiffness), so the layout that sets `λmax` changes in ways
@@ -61,9 +61,17 @@
 //! every particle with shear stiffness (`μ_t > 0`), and never again in the run after one
 //! that did not ([`BoundTracking::fluid_seen`]); before the first refresh, and after
 //! such a one, the raw-bound policy below applies. An interpretation, measured on the two
-//! mpm88 scenes (`examples/mls_mpm`, `docs/performance.md`): the jelly keeps its 1 500
-//! steps (0 rejected) with 30 Lanczos runs instead of 174; the fluid takes the raw-bound
-//! policy's steps bit for bit.
+//! mpm88 scenes (`examples/mls_mpm`, `docs/performance.md`): the jelly takes the same
+//! 1 500 steps (0 rejected) with 30 Lanczos runs where the motion guard alone calls 174;
+//! the fluid takes the raw-bound policy's steps bit for bit. When a solid turns fluid
+//! mid-run the calibration's reference and scale are dropped, so that the raw-bound
+//! policy starts clean.
+//!
+//! **Solids counted as fluids.** The test is on the tangent moduli the view reports: a
+//! solid whose tangent shear modulus reaches zero somewhere — `tangent::fixed_corotated`
+//! clamps a negative fitted `μ_t` to 0, a neo-Hookean `μ_t = (μ − λ ln J)/J` vanishes at
+//! `J = e^{μ/λ}` — switches the calibration off for the rest of the run. That costs
+//! Lanczos refreshes (speed), never safety: the raw-bound policy is the stricter one.
 //!
 //! # The raw-bound policy (`bound_drift < 0`, or APIC)
 //!

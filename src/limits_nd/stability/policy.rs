@@ -9,7 +9,7 @@ use crate::nd::ViewNd;
 impl<const D: usize> StabilityNd<D> {
     /// Whether the calibrated bound is on (`bound_drift ≥ 0`; under APIC only after a
     /// refresh and while no refresh has met a particle without shear stiffness,
-    /// [`super::bound_tracking`] "Under APIC").
+    /// [`crate::limits_nd::bound_tracking`] "Under APIC").
     pub(super) fn calibrating(&self) -> bool {
         self.config.bound_drift >= 0.0
             && match self.config.transfer {
@@ -18,7 +18,8 @@ impl<const D: usize> StabilityNd<D> {
             }
     }
 
-    /// The largest `B/λ` stepped on ([`BoundTracking::threshold`]).
+    /// The largest `B/λ` stepped on
+    /// ([`crate::limits_nd::bound_tracking::BoundTracking::threshold`]).
     ///
     /// The cost model is applied to FLIP only: under APIC the step carries the transfer's
     /// gain measured on the last refresh's top mode, which says nothing of the modes a
@@ -31,7 +32,7 @@ impl<const D: usize> StabilityNd<D> {
             .threshold(self.config.bound_slack, self.config.product_cost, supplied)
     }
 
-    /// In bound mode ([`super::bound_tracking`]), the current state's element bound, while
+    /// In bound mode ([`crate::limits_nd::bound_tracking`]), the current state's element bound, while
     /// it is finite and the last Lanczos run is younger than `bound_age`; `None` ends
     /// bound mode (a refresh follows).
     pub(super) fn bound_proposal(&mut self, view: &ViewNd<'_, D>) -> Option<f64> {
@@ -64,6 +65,12 @@ impl<const D: usize> StabilityNd<D> {
         // `μ_t ≤ 0` or not a number.
         let mine = view.lame_mu.iter().any(|&mu| mu.is_nan() || mu <= 0.0);
         let (_, any) = Self::agreement(&*self.reduce, view).min_and_any(0.0, mine);
-        self.tracking.fluid_seen = any;
+        if any {
+            // The raw-bound policy from here on, without the calibration's leftovers: its
+            // reference and the scale of the last re-anchoring (generic path).
+            self.tracking.fluid_seen = true;
+            self.tracking.reference = None;
+            self.tracking.scale = 0.0;
+        }
     }
 }

@@ -180,22 +180,17 @@ fn fused_step_as<const D: usize, S: AxisShape>(
             acc: Vector::<D>::zeros(),
             l: Tensor::<D>::zeros(),
         };
-        if let Some(f) =
-            axis_factors_inv::<D, S>(grid, &strides, &inv_h, &from.x[p], domain, &inv_l)
-        {
+        let x_old = &from.x[p];
+        if let Some(f) = axis_factors_inv::<D, S>(grid, &strides, &inv_h, x_old, domain, &inv_l) {
             visit_row_with(&f, n_axis, &mut gather);
         }
-        let (acc, l) = (gather.acc, gather.l);
-        let material = &inputs.material[p];
+        let (material, old) = (
+            &inputs.material[p],
+            (x_old, &from.v[p], &from.f[p], &from.sigma[p]),
+        );
         let lame_p = lame.get(material);
-        let u = update::update_particle(
-            grid,
-            (material, lame_p),
-            p,
-            (&from.x[p], &from.v[p], &from.f[p], &from.sigma[p]),
-            (&acc, &l),
-            dt,
-        )?;
+        let gathered = (&gather.acc, &gather.l);
+        let u = update::update_particle(grid, (material, lame_p), p, old, gathered, dt)?;
         let (mp, vol0) = (inputs.mass[p], inputs.volume0[p]);
         if summarize {
             let s = &mut outcome.summary;
