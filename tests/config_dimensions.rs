@@ -39,7 +39,7 @@ fn try_1d(c: ControllerConfig) -> Result<(), ControllerError> {
     Controller::<1>::standard(c).map(|_| ())
 }
 
-const ONE_D_ONLY: [(&str, &str); 9] = [
+const ONE_D_ONLY: [(&str, &str); 10] = [
     (r#"{"stability": {"tol": 1e-5}}"#, "stability.tol"),
     (
         r#"{"stability": {"reading": "paper"}}"#,
@@ -64,6 +64,7 @@ const ONE_D_ONLY: [(&str, &str); 9] = [
         r#"{"growth": {"energy_confirm": 0.0}}"#,
         "growth.energy_confirm",
     ),
+    (r#"{"temporal": {"balance": 1.0}}"#, "temporal.balance"),
 ];
 
 const ND_ONLY: [(&str, &str); 15] = [

@@ -9,7 +9,8 @@
 //! | `stability` (`null` leaves the limit out), `stability.safety` | ✓ | ✓ |
 //! | `stability.tol`, `reading`, `lanczos`, `tracking`, `bound58_every` (eq 58, the certified tracker) | ✓ | refused |
 //! | `stability_nd.*` (λmax tracking by Lanczos, motion guard, element bound, APIC transfer) | refused | ✓ |
-//! | `temporal.*` | ✓ | ✓ |
+//! | `temporal.*` but `balance` | ✓ | ✓ |
+//! | `temporal.balance` (eq 44's spatial error: the 1D estimators) | ✓ | refused |
 //! | `growth.enabled`, `window`, `windows`, `safety_factor`, `min_safety_scale` | ✓ | ✓ |
 //! | `growth.indicator`, `factor`, `floor`, `energy_confirm` (the checkerboard share) | ✓ | refused |
 //! | `growth.energy_tol` (the 2D/3D energy monitor's tolerance) | refused | ✓ |
@@ -34,6 +35,7 @@ const ONE_D_STABILITY: &str = "the 1D stability limit (eq 58, the certified trac
 const ONE_D_GROWTH: &str = "the 1D growth monitor (checkerboard share)";
 const ND_STABILITY: &str = "the 2D/3D stability limit's λmax tracking";
 const ND_GROWTH: &str = "the 2D/3D growth monitor (energy)";
+const ONE_D_TEMPORAL: &str = "the 1D temporal error's balance with eq 44's spatial error";
 
 impl ControllerConfig {
     /// [`Self::validate`], and every field that does not apply in `dim` dimensions left at
@@ -72,6 +74,9 @@ impl ControllerConfig {
             }
             if let Some(field) = changed_1d_growth(&self.growth) {
                 return refuse(field, ONE_D_GROWTH);
+            }
+            if self.temporal.balance.is_some() {
+                return refuse("temporal.balance", ONE_D_TEMPORAL);
             }
             // A Rust caller may set `stability_nd.safety`; the limit uses `stability.safety`.
             // (Without the limit, `stability: null`, neither is used.)
