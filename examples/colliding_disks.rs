@@ -31,6 +31,7 @@ use mpm_dt::nd::scenario::ScenarioNd;
 use mpm_dt::nd::SolverNd;
 use mpm_dt::sound_speed::SoundSpeed;
 use mpm_dt::{Dim, Dimension, Stepper, ViewNd};
+use plotters::coord::Shift;
 use plotters::prelude::*;
 use serde_json::json;
 use std::process::ExitCode;
@@ -150,12 +151,26 @@ fn plot(
         .flat_map(|(_, h, _)| h.rows.last().map(|r| r.0))
         .fold(0.0, f64::max)
         .max(1e-12);
+    plot_energies(&top, title, runs, t1)?;
+    plot_steps(&bottom, runs, t1)?;
+    root.present()?;
+    Ok(())
+}
+
+/// The energy panel of [`plot`]: each run's total, kinetic and strain energy against time
+/// up to `t1`.
+fn plot_energies(
+    area: &DrawingArea<SVGBackend<'_>, Shift>,
+    title: &str,
+    runs: &[(&str, &History, RGBColor)],
+    t1: f64,
+) -> Result<(), Box<dyn std::error::Error>> {
     let e_max = runs
         .iter()
         .flat_map(|(_, h, _)| h.rows.iter().map(|r| r.1 + r.2))
         .fold(0.0, f64::max)
         .max(1e-300);
-    let mut chart = ChartBuilder::on(&top)
+    let mut chart = ChartBuilder::on(area)
         .caption(title, ("sans-serif", 24))
         .margin(14)
         .x_label_area_size(45)
@@ -204,12 +219,21 @@ fn plot(
         .border_style(BLACK)
         .background_style(WHITE.mix(0.9))
         .draw()?;
+    Ok(())
+}
+
+/// The step panel of [`plot`]: each run's dt against time up to `t1`.
+fn plot_steps(
+    area: &DrawingArea<SVGBackend<'_>, Shift>,
+    runs: &[(&str, &History, RGBColor)],
+    t1: f64,
+) -> Result<(), Box<dyn std::error::Error>> {
     let dt_max = runs
         .iter()
         .flat_map(|(_, h, _)| h.rows.iter().map(|r| r.3).filter(|d| d.is_finite()))
         .fold(0.0, f64::max)
         .max(1e-300);
-    let mut chart = ChartBuilder::on(&bottom)
+    let mut chart = ChartBuilder::on(area)
         .margin(14)
         .x_label_area_size(45)
         .y_label_area_size(80)
@@ -243,7 +267,6 @@ fn plot(
         .border_style(BLACK)
         .background_style(WHITE.mix(0.9))
         .draw()?;
-    root.present()?;
     Ok(())
 }
 

@@ -96,7 +96,7 @@ use serde::Serialize;
 use std::process::ExitCode;
 use std::time::Instant;
 
-use args::parse_args;
+use args::{parse_args, Args};
 use matched::run_matched;
 use report::{print_table, ratios};
 
@@ -308,20 +308,8 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    if let Ok(text) = std::fs::read_to_string(&args.scenario) {
-        if matches!(mpm_dt::nd::scenario::ScenarioNd::dim_of(&text), Ok(2 | 3)) {
-            return match nd::compare(&args.scenario, &text, &args.alphas, args.repeat, args.json) {
-                Ok(true) => ExitCode::SUCCESS,
-                Ok(false) => {
-                    eprintln!("error: mpm-dt did not reach t_end");
-                    ExitCode::from(1)
-                }
-                Err(e) => {
-                    eprintln!("error: {e}");
-                    ExitCode::from(1)
-                }
-            };
-        }
+    if let Some(code) = compare_nd(&args) {
+        return code;
     }
     let scenario = match Scenario::from_file(&args.scenario) {
         Ok(s) => s,
@@ -359,43 +347,14 @@ fn main() -> ExitCode {
             return ExitCode::from(1);
         }
     }
-    // Interleaved repeats of the timed runs (`--repeat`): mpm-dt goes first in every other
-    // repeat; every run is deterministic, so only the wall times are kept.
-    let tracking = args.tracking.as_ref().map(|t| t.1);
-    // An mpm-dt run that blew up is not repeated (and has no wall ratio, `report::ratios`).
-    let reached = results.last().is_some_and(|r| !r.blew_up);
-    let repeat = if reached { args.repeat } else { 1 };
-    let mut walls: Vec<Vec<f64>> = results.iter().map(|r| vec![r.wall_s]).collect();
-    let timed = common::repeats::more_rounds(&mut walls, repeat, |i| {
-        match args.alphas.get(i) {
-            Some(&alpha) => run_fixed(&scenario, &reference, alpha),
-            None => run_controller(&scenario, &reference, tracking),
+    let (repeat, pair_ranges) = match repeat_timed_runs(&args, &scenario, &reference, &mut results)
+    {
+        Ok(r) => r,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(1);
         }
-        .map(|r| r.wall_s)
-        .map_err(|e| format!("{}: {e}", results[i].policy))
-    });
-    if let Err(e) = timed {
-        eprintln!("error: {e}");
-        return ExitCode::from(1);
-    }
-    for (r, w) in results.iter_mut().zip(walls) {
-        r.wall_s_runs = w;
-    }
-    for r in &mut results {
-        r.wall_s = common::repeats::median(&r.wall_s_runs);
-    }
-    let ours_runs = results
-        .last()
-        .map(|r| r.wall_s_runs.clone())
-        .unwrap_or_default();
-    let pair_ranges: Vec<(String, [f64; 2])> = results
-        .iter()
-        .filter(|r| r.policy != "mpm-dt" && !r.blew_up && reached && repeat > 1)
-        .map(|r| {
-            let range = common::repeats::ratio_range(&ours_runs, &r.wall_s_runs);
-            (r.policy.clone(), range)
-        })
-        .collect();
+    };
     // The fixed rule with mpm-dt's step count; a failure to find one is reported, not fatal.
     let mut same_count = Vec::new();
     if args.matched {
@@ -410,7 +369,101 @@ fn main() -> ExitCode {
             }
         }
     }
-    let ratios = ratios(&results);
+    print_results(
+        &args,
+        &scenario,
+        reference.x0.len(),
+        &results,
+        repeat,
+        &pair_ranges,
+        &same_count,
+    );
+    ExitCode::SUCCESS
+}
+
+/// A 2D or 3D scenario is compared by `nd::compare`: its exit code, or `None` for a 1D one.
+fn compare_nd(args: &Args) -> Option<ExitCode> {
+    if let Ok(text) = std::fs::read_to_string(&args.scenario) {
+        if matches!(mpm_dt::nd::scenario::ScenarioNd::dim_of(&text), Ok(2 | 3)) {
+            return Some(
+                match nd::compare(&args.scenario, &text, &args.alphas, args.repeat, args.json) {
+                    Ok(true) => ExitCode::SUCCESS,
+                    Ok(false) => {
+                        eprintln!("error: mpm-dt did not reach t_end");
+                        ExitCode::from(1)
+                    }
+                    Err(e) => {
+                        eprintln!("error: {e}");
+                        ExitCode::from(1)
+                    }
+                },
+            );
+        }
+    }
+    None
+}
+
+/// mpm-dt's wall-ratio range within a repeat against each fixed rule, by the rule's name.
+type PairRanges = Vec<(String, [f64; 2])>;
+
+/// Repeats the timed runs (`--repeat`) and sets every result's `wall_s_runs` and median
+/// `wall_s`: the number of repeats and mpm-dt's wall-ratio range within a repeat against
+/// each fixed rule.
+fn repeat_timed_runs(
+    args: &Args,
+    scenario: &Scenario,
+    reference: &Reference<'_>,
+    results: &mut [PolicyResult],
+) -> Result<(usize, PairRanges), String> {
+    // Interleaved repeats of the timed runs (`--repeat`): mpm-dt goes first in every other
+    // repeat; every run is deterministic, so only the wall times are kept.
+    let tracking = args.tracking.as_ref().map(|t| t.1);
+    // An mpm-dt run that blew up is not repeated (and has no wall ratio, `report::ratios`).
+    let reached = results.last().is_some_and(|r| !r.blew_up);
+    let repeat = if reached { args.repeat } else { 1 };
+    let mut walls: Vec<Vec<f64>> = results.iter().map(|r| vec![r.wall_s]).collect();
+    let timed = common::repeats::more_rounds(&mut walls, repeat, |i| {
+        match args.alphas.get(i) {
+            Some(&alpha) => run_fixed(scenario, reference, alpha),
+            None => run_controller(scenario, reference, tracking),
+        }
+        .map(|r| r.wall_s)
+        .map_err(|e| format!("{}: {e}", results[i].policy))
+    });
+    timed?;
+    for (r, w) in results.iter_mut().zip(walls) {
+        r.wall_s_runs = w;
+    }
+    for r in results.iter_mut() {
+        r.wall_s = common::repeats::median(&r.wall_s_runs);
+    }
+    let ours_runs = results
+        .last()
+        .map(|r| r.wall_s_runs.clone())
+        .unwrap_or_default();
+    let pair_ranges: PairRanges = results
+        .iter()
+        .filter(|r| r.policy != "mpm-dt" && !r.blew_up && reached && repeat > 1)
+        .map(|r| {
+            let range = common::repeats::ratio_range(&ours_runs, &r.wall_s_runs);
+            (r.policy.clone(), range)
+        })
+        .collect();
+    Ok((repeat, pair_ranges))
+}
+
+/// Prints the comparison: one JSON document with `--json`, else the table, the wall-ratio
+/// ranges and the errors of the fixed rules with mpm-dt's step count.
+fn print_results(
+    args: &Args,
+    scenario: &Scenario,
+    particles: usize,
+    results: &[PolicyResult],
+    repeat: usize,
+    pair_ranges: &[(String, [f64; 2])],
+    same_count: &[(f64, Option<f64>)],
+) {
+    let ratios = ratios(results);
     // Displacement amplitude `A/κ` (velocity amplitude `A c`, `ω = c κ`) above half a cell:
     // particles cross cells and the linear small-amplitude solution is only a reference.
     let large_amplitude = scenario.standing_wave().is_some_and(|w| {
@@ -421,7 +474,7 @@ fn main() -> ExitCode {
         let doc = serde_json::json!({
             "scenario": args.scenario,
             "t_end": scenario.t_end,
-            "particles": reference.x0.len(),
+            "particles": particles,
             "exact_solution_is_reference_only": large_amplitude,
             "policies": results,
             "ratios": ratios,
@@ -438,12 +491,12 @@ fn main() -> ExitCode {
         });
         println!("{doc}");
     } else {
-        print_table(&args.scenario, &results, &ratios, large_amplitude);
+        print_table(&args.scenario, results, &ratios, large_amplitude);
         if repeat > 1 {
             println!(
                 "wall times: medians of {repeat} interleaved runs per policy (the matched rule: one)"
             );
-            for (against, [lo, hi]) in &pair_ranges {
+            for (against, [lo, hi]) in pair_ranges {
                 println!("mpm-dt vs {against}: wall ratio within a repeat {lo:.3} … {hi:.3}");
             }
         }
@@ -457,5 +510,4 @@ fn main() -> ExitCode {
             );
         }
     }
-    ExitCode::SUCCESS
 }

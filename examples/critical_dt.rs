@@ -202,20 +202,25 @@ where
     Ok(out)
 }
 
+/// The table of the scenario in `args`, in its dimension.
 fn run(args: &Args) -> Result<Value, Box<dyn std::error::Error>> {
     let text = std::fs::read_to_string(&args.scenario)
         .map_err(|e| format!("cannot read {}: {e}", args.scenario))?;
     match mpm_dt::nd::scenario::ScenarioNd::dim_of(&text)? {
-        1 => {}
+        1 => run_1d(args),
         d => {
             let scenario = mpm_dt::nd::scenario::ScenarioNd::from_json(&text)?;
-            return if d == 2 {
+            if d == 2 {
                 run_nd::<2>(&scenario, args.amplitude)
             } else {
                 run_nd::<3>(&scenario, args.amplitude)
-            };
+            }
         }
     }
+}
+
+/// The table of a 1D scenario.
+fn run_1d(args: &Args) -> Result<Value, Box<dyn std::error::Error>> {
     let scenario = Scenario::from_file(&args.scenario)?;
     let grid = scenario.grid()?;
     let layout = scenario.particle_init()?;
@@ -254,16 +259,7 @@ fn run(args: &Args) -> Result<Value, Box<dyn std::error::Error>> {
     );
     let (full, dt_full_dense, full_skipped) = full_map_1d(&view, dt_eq56, small)?;
     let dt_full = full.map(|c| c.dt);
-    // The limits as `Controller::standard` builds them from the scenario's config.
-    let config = scenario.controller_config()?;
-    let p_stab = match config.stability {
-        Some(c) => Stability::new(c)?.propose(&view)?,
-        None => mpm_dt::Proposal::no_opinion(),
-    };
-    let p_sound = match config.sound_speed {
-        Some(c) => StepLimit::<1>::propose(&mut SoundSpeed::new(c)?, &view)?,
-        None => mpm_dt::Proposal::no_opinion(),
-    };
+    let (p_stab, p_sound) = controller_proposals(&scenario, &view)?;
     let dt_controller = p_stab.dt.min(p_sound.dt);
 
     // Real runs (eq 58's quarter period, the empirical bisection) cost in proportion to
@@ -294,18 +290,38 @@ fn run(args: &Args) -> Result<Value, Box<dyn std::error::Error>> {
     let ratio_eq56 = dt_eq56 / dt_eq49;
     let ratio_full = dt_full.map(|d| d / dt_eq49);
     // Why columns are `null`: the dense tools' and the real runs' size limits.
-    let mut skipped = Vec::new();
-    if !dt_controller.is_finite() {
-        skipped.push(NO_PROPOSAL.to_string());
-    }
-    if !small {
-        skipped.push(format!(
-            "lambda_max_dense, dt_full_map_dense and bound58's norm_2 and rho above {DENSE_LIMIT} \
-             particles"
-        ));
-    }
+    let mut skipped = skipped_columns(dt_controller, small);
     skipped.extend(full_skipped);
-    let runs = if n > RUN_LIMIT {
+    let runs = real_runs_if_few(
+        n,
+        &grid,
+        (scenario.shape, material),
+        &protocol,
+        (dt_eq49, dt_eq56, c),
+        small,
+        &mut skipped,
+    )?;
+    add_run_columns(
+        &mut table,
+        runs,
+        (ratio_eq56, ratio_full, dt_eq49),
+        &skipped,
+    );
+    Ok(table)
+}
+
+/// [`real_runs`] on the `protocol`'s `n` particles (`(shape, material)` on `grid`) when
+/// there are at most [`RUN_LIMIT`]; above, `None` and the reason in `skipped`.
+fn real_runs_if_few(
+    n: usize,
+    grid: &mpm_dt::Grid,
+    (shape, material): (mpm_dt::Shape, mpm_dt::mpm::Material),
+    protocol: &Protocol,
+    steps: (f64, f64, f64),
+    small: bool,
+    skipped: &mut Vec<String>,
+) -> Result<Option<RealRuns>, Box<dyn std::error::Error>> {
+    Ok(if n > RUN_LIMIT {
         tracing::info!(
             n,
             RUN_LIMIT,
@@ -316,15 +332,53 @@ fn run(args: &Args) -> Result<Value, Box<dyn std::error::Error>> {
         ));
         None
     } else {
-        Some(real_runs(
-            &grid,
-            scenario.shape,
-            material,
-            &protocol,
-            (dt_eq49, dt_eq56, c),
-            small,
-        )?)
+        Some(real_runs(grid, shape, material, protocol, steps, small)?)
+    })
+}
+
+/// The stability and the sound-speed limits' proposals on `view`, the limits as
+/// `Controller::standard` builds them from the scenario's config.
+fn controller_proposals(
+    scenario: &Scenario,
+    view: &mpm_dt::View<'_>,
+) -> Result<(mpm_dt::Proposal, mpm_dt::Proposal), Box<dyn std::error::Error>> {
+    // The limits as `Controller::standard` builds them from the scenario's config.
+    let config = scenario.controller_config()?;
+    let p_stab = match config.stability {
+        Some(c) => Stability::new(c)?.propose(view)?,
+        None => mpm_dt::Proposal::no_opinion(),
     };
+    let p_sound = match config.sound_speed {
+        Some(c) => StepLimit::<1>::propose(&mut SoundSpeed::new(c)?, view)?,
+        None => mpm_dt::Proposal::no_opinion(),
+    };
+    Ok((p_stab, p_sound))
+}
+
+/// Why columns are `null` before the full map and the real runs add theirs: no limit
+/// proposing a step, and the dense tools' size limit.
+fn skipped_columns(dt_controller: f64, small: bool) -> Vec<String> {
+    let mut skipped = Vec::new();
+    if !dt_controller.is_finite() {
+        skipped.push(NO_PROPOSAL.to_string());
+    }
+    if !small {
+        skipped.push(format!(
+            "lambda_max_dense, dt_full_map_dense and bound58's norm_2 and rho above {DENSE_LIMIT} \
+             particles"
+        ));
+    }
+    skipped
+}
+
+/// The real runs' columns (`null` when they were skipped), the ratios to `h/c` (`ratios`
+/// are eq 56's, the full map's and `dt_eq49`) and the `skipped` note.
+fn add_run_columns(
+    table: &mut Value,
+    runs: Option<RealRuns>,
+    (ratio_eq56, ratio_full, dt_eq49): (f64, Option<f64>, f64),
+    skipped: &[String],
+) {
     let (bound, emp_scan) = runs.unzip();
     let (emp, scan) = emp_scan.unzip();
     table["bound58"] = json!(bound);
@@ -340,7 +394,6 @@ fn run(args: &Args) -> Result<Value, Box<dyn std::error::Error>> {
     if !skipped.is_empty() {
         table["skipped"] = json!(skipped.join("; "));
     }
-    Ok(table)
 }
 
 /// The nodal full map, the dense one and why the former is `null` ([`full_map_1d`]).

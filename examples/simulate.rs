@@ -47,8 +47,10 @@ mod side_by_side;
 #[path = "simulate/state_stream.rs"]
 mod state_stream;
 
-use mpm_dt::controller::{Controller, ControllerConfig, Stats};
+use mpm_dt::controller::{Controller, ControllerConfig, Decision, Stats};
+use mpm_dt::nd::problems::PlaneWave;
 use mpm_dt::nd::scenario::ScenarioNd;
+use mpm_dt::nd::SolverNd;
 use mpm_dt::reduce::Reduce;
 use mpm_dt::scenario::Scenario;
 use mpm_dt::{Dim, Dimension, Stepper, ViewNd};
@@ -194,6 +196,58 @@ impl Ranks {
     }
 }
 
+/// `--fixed-dt DT --steps K` in 2D/3D: K plain steps of DT from `s` (whose energy is
+/// `e0`), the summary and the state to stream with it.
+fn fixed_nd<const D: usize>(
+    mut s: SolverNd<D>,
+    wave: Option<&PlaneWave<D>>,
+    (dt, k): (f64, u64),
+    e0: f64,
+) -> (Value, Option<state_stream::StateWriter>)
+where
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>> + mpm_dt::controller::StandardLimits<D>,
+{
+    let error = fixed_steps(&mut s, dt, k);
+    let e = s.total_energy();
+    let blew_up = error.is_some() || !e.is_finite() || e > 10.0 * e0;
+    let out = json!({
+        "t_final": s.time(), "steps_accepted": s.step_count(), "steps_rejected": 0,
+        "blew_up": blew_up, "dt_min": dt, "dt_mean": dt, "dt_max": dt, "binding": {},
+        "velocity_error_linf": wave.map(|w| w.velocity_error(&s.view())),
+        "energy_initial": e0, "energy_final": e, "error": error,
+    });
+    // The state is streamed when the summary is printed, not built here.
+    (out, Some(state_stream::writer(s)))
+}
+
+/// A failed controlled run's message: the error and, if there was one, the last rejection's
+/// limit and message.
+fn failure_message(e: impl std::fmt::Display, last_rejection: Option<&Decision>) -> String {
+    let why = last_rejection
+        .map(|d| {
+            format!(
+                "; last rejection by {} ({})",
+                d.rejected_by.as_deref().unwrap_or("?"),
+                d.message.as_deref().unwrap_or("no message")
+            )
+        })
+        .unwrap_or_default();
+    format!("{e}{why}")
+}
+
+/// The element bound over the Lanczos value at the refreshes as `[min, median, max]`, or
+/// null without a refresh.
+fn bound_ratio_summary(bound_ratios: &[f64]) -> Value {
+    match bound_ratios.iter().copied().reduce(f64::min) {
+        Some(lo) => json!([
+            lo,
+            common::repeats::median(bound_ratios),
+            bound_ratios.iter().copied().fold(lo, f64::max)
+        ]),
+        None => json!(null),
+    }
+}
+
 fn run_nd<const D: usize>(
     scenario: &ScenarioNd,
     args: &Args,
@@ -222,17 +276,7 @@ where
         eprintln!("simulate: {describe}, t_end = {}", scenario.t_end);
     }
     if let Some((dt, k)) = args.fixed {
-        let error = fixed_steps(&mut s, dt, k);
-        let e = s.total_energy();
-        let blew_up = error.is_some() || !e.is_finite() || e > 10.0 * e0;
-        let out = json!({
-            "t_final": s.time(), "steps_accepted": s.step_count(), "steps_rejected": 0,
-            "blew_up": blew_up, "dt_min": dt, "dt_mean": dt, "dt_max": dt, "binding": {},
-            "velocity_error_linf": wave.as_ref().map(|w| w.velocity_error(&s.view())),
-            "energy_initial": e0, "energy_final": e, "error": error,
-        });
-        // The state is streamed when the summary is printed, not built here.
-        return Ok((out, Some(state_stream::writer(s))));
+        return Ok(fixed_nd(s, wave.as_ref(), (dt, k), e0));
     }
     let config: ControllerConfig = scenario.controller_config().map_err(|e| e.to_string())?;
     let mut controller =
@@ -258,19 +302,9 @@ where
         }
     });
     let wall = start.elapsed().as_secs_f64();
-    let error = run.err().map(|e| {
-        let why = last_rejection
-            .as_ref()
-            .map(|d| {
-                format!(
-                    "; last rejection by {} ({})",
-                    d.rejected_by.as_deref().unwrap_or("?"),
-                    d.message.as_deref().unwrap_or("no message")
-                )
-            })
-            .unwrap_or_default();
-        format!("{e}{why}")
-    });
+    let error = run
+        .err()
+        .map(|e| failure_message(e, last_rejection.as_ref()));
     let mut out = stats_summary(controller.stats());
     let e = ranks.sum(s.total_energy());
     let velocity_error = wave.as_ref().map(|w| w.velocity_error(&s.view()));
@@ -285,14 +319,7 @@ where
     out["stability_refreshes"] = json!(refreshes.0);
     out["lanczos_applications"] = json!(refreshes.1);
     // The element bound over the Lanczos value at the refreshes (min, median, max).
-    out["bound_ratio"] = match bound_ratios.iter().copied().reduce(f64::min) {
-        Some(lo) => json!([
-            lo,
-            common::repeats::median(&bound_ratios),
-            bound_ratios.iter().copied().fold(lo, f64::max)
-        ]),
-        None => json!(null),
-    };
+    out["bound_ratio"] = bound_ratio_summary(&bound_ratios);
     if ranks.reduce.is_some() {
         out["ranks"] = json!(ranks.size());
         out["reduce_s"] = json!((ranks.spent)());
@@ -408,23 +435,7 @@ fn main() -> ExitCode {
         }
         return ExitCode::from(2);
     }
-    let result = std::fs::read_to_string(&args.scenario)
-        .map_err(|e| format!("cannot read {}: {e}", args.scenario))
-        .and_then(|text| {
-            let dim = ScenarioNd::dim_of(&text).map_err(|e| e.to_string())?;
-            match dim {
-                1 if ranks.size() > 1 => Err("1D scenarios run on one process".into()),
-                1 => run_1d(&text, &args).map(|v| (v, None)),
-                d => {
-                    let scenario = ScenarioNd::from_json(&text).map_err(|e| e.to_string())?;
-                    if d == 2 {
-                        run_nd::<2>(&scenario, &args, &ranks)
-                    } else {
-                        run_nd::<3>(&scenario, &args, &ranks)
-                    }
-                }
-            }
-        });
+    let result = run_file(&args, &ranks);
     if !ranks.lead() {
         // Rank 0 reports; the others only say why they failed, if they did.
         return match result {
@@ -436,17 +447,51 @@ fn main() -> ExitCode {
             }
         };
     }
+    report(result, args.json)
+}
+
+/// Reads the scenario file and runs it in its dimension: the summary, and the state to
+/// stream with it after `--fixed-dt`.
+fn run_file(
+    args: &Args,
+    ranks: &Ranks,
+) -> Result<(Value, Option<state_stream::StateWriter>), String> {
+    std::fs::read_to_string(&args.scenario)
+        .map_err(|e| format!("cannot read {}: {e}", args.scenario))
+        .and_then(|text| {
+            let dim = ScenarioNd::dim_of(&text).map_err(|e| e.to_string())?;
+            match dim {
+                1 if ranks.size() > 1 => Err("1D scenarios run on one process".into()),
+                1 => run_1d(&text, args).map(|v| (v, None)),
+                d => {
+                    let scenario = ScenarioNd::from_json(&text).map_err(|e| e.to_string())?;
+                    if d == 2 {
+                        run_nd::<2>(&scenario, args, ranks)
+                    } else {
+                        run_nd::<3>(&scenario, args, ranks)
+                    }
+                }
+            }
+        })
+}
+
+/// Prints a run's summary (one JSON document with `json`, with the state when there is
+/// one) or its error, and the exit code it ends with.
+fn report(
+    result: Result<(Value, Option<state_stream::StateWriter>), String>,
+    json: bool,
+) -> ExitCode {
     match result {
         Ok((summary, state)) => {
             let failed = summary["blew_up"].as_bool().unwrap_or(false);
             match state {
-                Some(state) if args.json => {
+                Some(state) if json => {
                     if let Err(e) = state_stream::print_with_state(&summary, state) {
                         eprintln!("error: writing the state: {e}");
                         return ExitCode::FAILURE;
                     }
                 }
-                _ if args.json => println!("{summary}"),
+                _ if json => println!("{summary}"),
                 _ => println!(
                     "{}",
                     serde_json::to_string_pretty(&summary).unwrap_or_default()

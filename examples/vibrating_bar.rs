@@ -116,6 +116,15 @@ struct Run {
 }
 
 impl Run {
+    /// The mean accepted step; NaN without a step.
+    fn dt_mean(&self) -> f64 {
+        if self.n > 0 {
+            self.dt_sum / self.n as f64
+        } else {
+            f64::NAN
+        }
+    }
+
     fn push(&mut self, dt: f64) {
         if self.n == 0 {
             self.dt_min = dt;
@@ -247,10 +256,7 @@ fn main() -> ExitCode {
     };
     let x0 = stepper.view().x.to_vec();
     let energy_initial = stepper.total_energy();
-    let h = stepper.grid().h;
-    let c = scenario.wave_speed();
-
-    let unit = h / c;
+    let unit = stepper.grid().h / scenario.wave_speed();
     eprintln!("vibrating_bar: {}", describe(&scenario, &stepper));
     let mut history = DtHistory::new();
     let mut controller_stats: Option<(Stats, f64)> = None;
@@ -272,45 +278,65 @@ fn main() -> ExitCode {
         },
     };
     if let Some(path) = &args.plot {
-        let title = format!(
-            "mpm-dt: {} cells, {:?}, {} to t = {}",
-            stepper.grid().cells,
-            stepper.shape(),
-            match scenario.initial {
-                mpm_dt::scenario::Initial::StandingWave { .. } => "standing wave",
-                _ => "at rest",
-            },
-            scenario.t_end
-        );
+        let title = plot_title(&scenario, &stepper);
         if let Err(e) = common::plot::plot_dt(path, &history, unit, &title) {
             eprintln!("error: cannot draw {path}: {e}");
             return ExitCode::from(1);
         }
     }
 
-    let view = stepper.view();
-    let energy_final = stepper.total_energy();
-    let blew_up = run.failure.is_some()
-        || !energy_final.is_finite()
-        || (energy_initial > 0.0 && energy_final > 10.0 * energy_initial);
-    // ℓ of the synchronised velocity (module docs).
-    let half_step = match args.fixed_dt {
-        Some(dt) if run.n > 0 => 0.5 * dt,
-        Some(_) => 0.0,
-        None => history.closing_half_step.unwrap_or(0.0),
+    let finished = Finished {
+        run,
+        mode,
+        controller_stats,
+        closing_half_step: history.closing_half_step,
+        x0,
+        energy_initial,
+        unit,
     };
-    let (velocity_error_linf, velocity_error_linf_raw) =
-        common::velocity_errors(&scenario, &x0, &view, half_step);
-    let n = run.n;
-    let (dt_min, dt_max) = (run.dt_min, run.dt_max);
-    let dt_mean = if n > 0 {
-        run.dt_sum / n as f64
-    } else {
-        f64::NAN
-    };
+    report(&args, &scenario, &stepper, finished)
+}
+
+/// The run and what the summary compares it with, from `main` to [`report`].
+struct Finished {
+    run: Run,
+    /// `"fixed_dt"` or `"controller"`.
+    mode: &'static str,
+    /// The controller's statistics and final safety scale (`None` with `--fixed-dt`).
+    controller_stats: Option<(Stats, f64)>,
+    /// The controlled run's closing half step ([`DtHistory`]).
+    closing_half_step: Option<f64>,
+    /// The initial particle positions.
+    x0: Vec<f64>,
+    energy_initial: f64,
+    /// `h/c`.
+    unit: f64,
+}
+
+/// The plot's title: the layout and the scenario.
+fn plot_title(scenario: &Scenario, stepper: &ReferenceStepper) -> String {
+    format!(
+        "mpm-dt: {} cells, {:?}, {} to t = {}",
+        stepper.grid().cells,
+        stepper.shape(),
+        match scenario.initial {
+            mpm_dt::scenario::Initial::StandingWave { .. } => "standing wave",
+            _ => "at rest",
+        },
+        scenario.t_end
+    )
+}
+
+/// The steps per binding limit and the rejected steps: the controller's, or all `n` steps
+/// under `mode` without a controller.
+fn binding_and_rejected(
+    controller_stats: Option<&(Stats, f64)>,
+    mode: &str,
+    n: u64,
+) -> (BTreeMap<String, u64>, u64) {
     let mut binding: BTreeMap<String, u64> = BTreeMap::new();
     let mut steps_rejected = 0;
-    match &controller_stats {
+    match controller_stats {
         Some((stats, _)) => {
             binding.clone_from(&stats.binding);
             steps_rejected = stats.rejected;
@@ -319,6 +345,51 @@ fn main() -> ExitCode {
             binding.insert(mode.to_string(), n);
         }
     }
+    (binding, steps_rejected)
+}
+
+/// `ℓ` of the synchronised velocity (module docs): half the fixed step `fixed_dt` when `n`
+/// steps were taken, else the controlled run's closing half step (0 without one).
+fn half_step(fixed_dt: Option<f64>, n: u64, closing_half_step: Option<f64>) -> f64 {
+    match fixed_dt {
+        Some(dt) if n > 0 => 0.5 * dt,
+        Some(_) => 0.0,
+        None => closing_half_step.unwrap_or(0.0),
+    }
+}
+
+/// Prints the summary of the finished run (JSON with `--json`, else one line) and the exit
+/// code: failure when it blew up.
+fn report(
+    args: &Args,
+    scenario: &Scenario,
+    stepper: &ReferenceStepper,
+    finished: Finished,
+) -> ExitCode {
+    let Finished {
+        run,
+        mode,
+        controller_stats,
+        closing_half_step,
+        x0,
+        energy_initial,
+        unit,
+    } = finished;
+    let h = stepper.grid().h;
+    let c = scenario.wave_speed();
+    let view = stepper.view();
+    let energy_final = stepper.total_energy();
+    let blew_up = run.failure.is_some()
+        || !energy_final.is_finite()
+        || (energy_initial > 0.0 && energy_final > 10.0 * energy_initial);
+    // ℓ of the synchronised velocity (module docs).
+    let half_step = half_step(args.fixed_dt, run.n, closing_half_step);
+    let (velocity_error_linf, velocity_error_linf_raw) =
+        common::velocity_errors(scenario, &x0, &view, half_step);
+    let n = run.n;
+    let (dt_min, dt_max) = (run.dt_min, run.dt_max);
+    let dt_mean = run.dt_mean();
+    let (binding, steps_rejected) = binding_and_rejected(controller_stats.as_ref(), mode, n);
     let finite = |x: f64| x.is_finite().then_some(x);
 
     let mut out = json!({

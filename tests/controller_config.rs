@@ -160,6 +160,7 @@ fn filter_follows_the_soderlind_formula() {
     assert_eq!(f.history.len(), 1);
 }
 
+/// Random configurations with every setting in range.
 fn config() -> impl Strategy<Value = ControllerConfig> {
     (
         (
@@ -210,61 +211,79 @@ fn config() -> impl Strategy<Value = ControllerConfig> {
             prop_oneof![Just(0.0), 0.0f64..1.0],
         ),
     )
-        .prop_map(|(a, b, filter, t, g)| ControllerConfig {
-            dt_initial: a.0,
-            dt_min: a.1,
-            dt_max: a.2,
-            safety: a.3,
-            max_growth: a.4,
-            hold_growth: 1.0 + (a.4 - 1.0) * b.3,
-            min_shrink: b.0,
-            max_shrink_first: b.1,
-            max_shrink_repeated: b.2,
-            reject_shrink: b.3,
-            max_consecutive_rejections: b.4,
-            order: b.5,
-            filter,
-            temporal: TemporalErrorConfig {
-                enabled: t.0,
-                rtol: t.1,
-                atol_rel: Some(t.2),
-                atol_v: t.3,
-                atol_sigma: t.4,
-                balance: t.5,
-                max_deferred: t.6,
-                defer_below: t.7,
+        .prop_map(assemble)
+}
+
+/// The top-level settings `config` draws: `dt_initial`, `dt_min`, `dt_max`, `safety`,
+/// `max_growth`.
+type Steps = (Option<f64>, f64, Option<f64>, f64, f64);
+/// The shrink settings `config` draws (`reject_shrink` also sets `hold_growth`), then
+/// `max_consecutive_rejections` and `order`.
+type Shrinks = (f64, f64, f64, f64, u32, u32);
+/// The temporal error settings `config` draws.
+type Temporal = (bool, f64, f64, f64, f64, Option<f64>, u32, f64);
+/// The growth monitor's settings `config` draws (they also pick the standard limits).
+type Growth = (bool, bool, u32, u32, f64, f64, f64, f64);
+
+/// The configuration from the values `config` drew.
+fn assemble(
+    (a, b, filter, t, g): (Steps, Shrinks, FilterPreset, Temporal, Growth),
+) -> ControllerConfig {
+    ControllerConfig {
+        dt_initial: a.0,
+        dt_min: a.1,
+        dt_max: a.2,
+        safety: a.3,
+        max_growth: a.4,
+        hold_growth: 1.0 + (a.4 - 1.0) * b.3,
+        min_shrink: b.0,
+        max_shrink_first: b.1,
+        max_shrink_repeated: b.2,
+        reject_shrink: b.3,
+        max_consecutive_rejections: b.4,
+        order: b.5,
+        filter,
+        temporal: TemporalErrorConfig {
+            enabled: t.0,
+            rtol: t.1,
+            atol_rel: Some(t.2),
+            atol_v: t.3,
+            atol_sigma: t.4,
+            balance: t.5,
+            max_deferred: t.6,
+            defer_below: t.7,
+        },
+        growth: GrowthConfig {
+            enabled: g.0,
+            indicator: if g.1 {
+                GrowthIndicator::Energy
+            } else {
+                GrowthIndicator::Checkerboard
             },
-            growth: GrowthConfig {
-                enabled: g.0,
-                indicator: if g.1 {
-                    GrowthIndicator::Energy
-                } else {
-                    GrowthIndicator::Checkerboard
-                },
-                window: g.2,
-                windows: g.3,
-                factor: g.4,
-                floor: g.5,
-                safety_factor: g.6,
-                min_safety_scale: g.7,
-                energy_confirm: g.5,
-                energy_tol: g.4 - 1.0,
-            },
-            // The standard limits: present or left out, with in-range settings.
-            stability: g.0.then_some(StabilityConfig {
-                safety: b.1,
-                ..StabilityConfig::default()
-            }),
-            sound_speed: g.1.then_some(SoundSpeedConfig { alpha: g.4 }),
-            // In-range tracking settings (its safety is `stability.safety`, not in JSON).
-            stability_nd: StabilityNdConfig {
-                refresh_cells: b.2,
-                bound_slack: t.7 - 0.5,
-                bound_age: g.2,
-                ..StabilityNdConfig::default()
-            },
-            gravity: g.0.then(|| vec![0.0, -g.4]),
-        })
+            window: g.2,
+            windows: g.3,
+            factor: g.4,
+            floor: g.5,
+            safety_factor: g.6,
+            min_safety_scale: g.7,
+            energy_confirm: g.5,
+            energy_tol: g.4 - 1.0,
+        },
+        // The standard limits: present or left out, with in-range settings.
+        stability: g.0.then_some(StabilityConfig {
+            safety: b.1,
+            ..StabilityConfig::default()
+        }),
+        sound_speed: g.1.then_some(SoundSpeedConfig { alpha: g.4 }),
+        // In-range tracking settings (its safety is `stability.safety`, not in JSON).
+        stability_nd: StabilityNdConfig {
+            refresh_cells: b.2,
+            bound_slack: t.7 - 0.5,
+            bound_age: g.2,
+            ..StabilityNdConfig::default()
+        },
+        gravity: g.0.then(|| vec![0.0, -g.4]),
+    }
 }
 
 proptest! {

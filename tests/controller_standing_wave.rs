@@ -105,13 +105,13 @@
 //!   limit never binds (see the printed binding counts); a tighter `temporal.rtol` would buy
 //!   accuracy with smaller steps.
 
-use mpm_dt::controller::{Controller, ControllerConfig};
+use mpm_dt::controller::{Controller, ControllerConfig, Stats};
 use mpm_dt::limit::StepLimit;
 use mpm_dt::mpm::{Material, ReferenceStepper};
 use mpm_dt::problems::{uniform_positions, StandingWave};
 use mpm_dt::stability::{
-    EmpiricalConfig, Eq56Operator, LambdaMaxTracker, LanczosConfig, Protocol, Stability,
-    StabilityConfig,
+    EmpiricalConfig, EmpiricalCritical, Eq56Operator, LambdaMaxTracker, LanczosConfig, Protocol,
+    Stability, StabilityConfig,
 };
 use mpm_dt::{closing_half_step, Boundary, Grid, Shape, Stepper};
 use rand::{Rng, SeedableRng};
@@ -193,22 +193,19 @@ fn limits() -> Vec<Box<dyn StepLimit>> {
     vec![Box::new(stability)]
 }
 
-fn check(jitter: bool, amplitude: f64, expect: Expect) {
-    let start = Instant::now();
-    let h = 1.0 / CELLS as f64;
-    let wave = StandingWave::new(amplitude, 1.0, 1.0, 1.0, 1.0);
-    let (c0, omega) = (wave.wave_speed(), wave.angular_frequency());
-    let x = layout(jitter);
-    let kind = if jitter { "jittered" } else { "uniform" };
-    let label = format!("{kind} A {amplitude:e}");
-
-    // The empirical critical step of this layout at this amplitude (module docs).
-    let dt56 = dt_eq56(&stepper(&x, &wave));
+/// The empirical critical step of the layout `x` under `wave` at `amplitude`, bisected
+/// from `[dt56, 1.2 dt56]`.
+fn empirical_critical(
+    x: &[f64],
+    wave: &StandingWave,
+    amplitude: f64,
+    dt56: f64,
+) -> EmpiricalCritical {
     let protocol = Protocol::new(
         grid(),
         Shape::Gimp,
         MATERIAL,
-        &wave.particle_init(x.clone()),
+        &wave.particle_init(x.to_vec()),
         EmpiricalConfig {
             amplitude,
             rel_tol: 5e-3,
@@ -216,13 +213,27 @@ fn check(jitter: bool, amplitude: f64, expect: Expect) {
         },
     )
     .expect("protocol");
-    let emp = protocol
+    protocol
         .critical_dt(dt56, 1.2 * dt56)
-        .expect("empirical critical step");
-    let crit = emp.dt_unstable;
+        .expect("empirical critical step")
+}
 
-    // Exactly 10⁴ controlled steps.
-    let mut s = stepper(&x, &wave);
+/// A controlled run of [`STEPS`] steps and what `check` reads from it.
+struct Controlled {
+    s: ReferenceStepper,
+    /// The initial energy.
+    e0: f64,
+    /// Every step taken.
+    dts: Vec<f64>,
+    /// The last closing half step the decisions gave.
+    half_ctrl: Option<f64>,
+    stats: Stats,
+}
+
+/// Exactly [`STEPS`] controlled steps from the layout `x` under `wave`, asserting no
+/// blow-up on the way.
+fn controlled(x: &[f64], wave: &StandingWave, label: &str) -> Controlled {
+    let mut s = stepper(x, wave);
     let e0 = s.total_energy();
     let mut c =
         Controller::with_default_limits(ControllerConfig::default(), limits()).expect("controller");
@@ -241,8 +252,90 @@ fn check(jitter: bool, amplitude: f64, expect: Expect) {
             s.time()
         );
     }
-    let t_final = s.time();
     let stats = c.stats().clone();
+    Controlled {
+        s,
+        e0,
+        dts,
+        half_ctrl,
+        stats,
+    }
+}
+
+/// Fixed steps of `dt` from the layout `x` to `t_final` (the last one shortened to land on
+/// it): the stepper and the number of steps.
+fn fixed_to(x: &[f64], wave: &StandingWave, dt: f64, t_final: f64) -> (ReferenceStepper, usize) {
+    let mut r = stepper(x, wave);
+    let mut q_steps = 0_usize;
+    loop {
+        let rest = t_final - r.time();
+        if rest <= 1e-12 * t_final {
+            break;
+        }
+        r.try_step(dt.min(rest)).expect("quarter-critical step");
+        r.accept().expect("trial");
+        q_steps += 1;
+    }
+    (r, q_steps)
+}
+
+/// The largest `E/E_0` over [`STEPS`] fixed steps of `dt` (infinite when a step fails).
+fn fixed_growth(x: &[f64], wave: &StandingWave, dt: f64, e0: f64) -> f64 {
+    let mut f = stepper(x, wave);
+    let mut fixed_growth: f64 = 1.0;
+    for _ in 0..STEPS {
+        if f.try_step(dt).is_err() || f.accept().is_err() {
+            fixed_growth = f64::INFINITY;
+            break;
+        }
+        fixed_growth = fixed_growth.max(f.total_energy() / e0);
+    }
+    fixed_growth
+}
+
+/// The mean step against the critical one: at least 0.85 × critical when `reaches`, else
+/// the known shortfall with growth events.
+fn assert_mean_dt(label: &str, reaches: bool, mean: f64, crit: f64, growth_events: u64) {
+    if reaches {
+        assert!(
+            mean >= 0.85 * crit,
+            "{label}: mean dt {mean} < 0.85 × critical {crit}"
+        );
+    } else {
+        assert!(
+            mean < 0.85 * crit && growth_events > 0,
+            "{label}: the known shortfall is gone (mean dt {:.3} × critical, {} growth \
+             events): assert mean dt ≥ 0.85 × critical here",
+            mean / crit,
+            growth_events
+        );
+    }
+}
+
+/// Runs one case (module docs) and asserts what `expect` says holds for it.
+fn check(jitter: bool, amplitude: f64, expect: Expect) {
+    let start = Instant::now();
+    let h = 1.0 / CELLS as f64;
+    let wave = StandingWave::new(amplitude, 1.0, 1.0, 1.0, 1.0);
+    let (c0, omega) = (wave.wave_speed(), wave.angular_frequency());
+    let x = layout(jitter);
+    let kind = if jitter { "jittered" } else { "uniform" };
+    let label = format!("{kind} A {amplitude:e}");
+
+    // The empirical critical step of this layout at this amplitude (module docs).
+    let dt56 = dt_eq56(&stepper(&x, &wave));
+    let emp = empirical_critical(&x, &wave, amplitude, dt56);
+    let crit = emp.dt_unstable;
+
+    // Exactly 10⁴ controlled steps.
+    let Controlled {
+        s,
+        e0,
+        dts,
+        half_ctrl,
+        stats,
+    } = controlled(&x, &wave, &label);
+    let t_final = s.time();
     let mean = stats.dt_mean().expect("steps taken");
     let err_ctrl = velocity_error(&s, &wave, &x, 0.0);
     let lag_ctrl = 0.5 * dts[STEPS - 2];
@@ -253,17 +346,7 @@ fn check(jitter: bool, amplitude: f64, expect: Expect) {
 
     // Fixed steps of a quarter of the critical step to the same final time.
     let dt_q = 0.25 * emp.dt();
-    let mut r = stepper(&x, &wave);
-    let mut q_steps = 0_usize;
-    loop {
-        let rest = t_final - r.time();
-        if rest <= 1e-12 * t_final {
-            break;
-        }
-        r.try_step(dt_q.min(rest)).expect("quarter-critical step");
-        r.accept().expect("trial");
-        q_steps += 1;
-    }
+    let (r, q_steps) = fixed_to(&x, &wave, dt_q, t_final);
     let err_q = velocity_error(&r, &wave, &x, 0.0);
     let lag_q = 0.5 * dt_q;
     let ratio = err_ctrl / err_q;
@@ -272,15 +355,7 @@ fn check(jitter: bool, amplitude: f64, expect: Expect) {
     let sync_ratio = sync_ctrl / sync_q;
 
     // Diagnostic: the controller's initial step, 0.95·dt₅₆, held fixed for 10⁴ steps.
-    let mut f = stepper(&x, &wave);
-    let mut fixed_growth: f64 = 1.0;
-    for _ in 0..STEPS {
-        if f.try_step(0.95 * dt56).is_err() || f.accept().is_err() {
-            fixed_growth = f64::INFINITY;
-            break;
-        }
-        fixed_growth = fixed_growth.max(f.total_energy() / e0);
-    }
+    let fixed_growth = fixed_growth(&x, &wave, 0.95 * dt56, e0);
 
     let (energy_ctrl, energy_q) = (s.total_energy() / e0, r.total_energy() / e0);
     let drift = |dt: f64| (omega * dt).powi(3) / 24.0;
@@ -316,20 +391,7 @@ fn check(jitter: bool, amplitude: f64, expect: Expect) {
         start.elapsed().as_secs_f64(),
     );
 
-    if expect.mean_dt {
-        assert!(
-            mean >= 0.85 * crit,
-            "{label}: mean dt {mean} < 0.85 × critical {crit}"
-        );
-    } else {
-        assert!(
-            mean < 0.85 * crit && stats.growth_events > 0,
-            "{label}: the known shortfall is gone (mean dt {:.3} × critical, {} growth \
-             events): assert mean dt ≥ 0.85 × critical here",
-            mean / crit,
-            stats.growth_events
-        );
-    }
+    assert_mean_dt(&label, expect.mean_dt, mean, crit, stats.growth_events);
     if expect.within_10_percent {
         assert!(
             (sync_ctrl - sync_q).abs() <= 0.1 * sync_q,

@@ -36,10 +36,10 @@ fn check(name: &str, result: Result<Scenario, ScenarioError>, expect: &Expect) {
     }
 }
 
-#[test]
-fn bad_json_scenarios_are_typed_errors_naming_the_field() {
+/// The bad JSON scenarios: a name, the text and the error it must produce.
+const BAD_JSON: &[(&str, &str, Expect)] = {
     use Expect::*;
-    let cases: &[(&str, &str, Expect)] = &[
+    &[
         ("truncated", r#"{"cells": 10"#, Syntax),
         ("not an object", r#"[1, 2, 3]"#, Syntax),
         ("NaN literal", r#"{"youngs_modulus": NaN}"#, Syntax),
@@ -180,7 +180,12 @@ fn bad_json_scenarios_are_typed_errors_naming_the_field() {
             r#"{"controller": {"sound_speed": {"alpha": 0}}}"#,
             Invalid("controller"),
         ),
-    ];
+    ]
+};
+
+#[test]
+fn bad_json_scenarios_are_typed_errors_naming_the_field() {
+    let cases = BAD_JSON;
     assert!(cases.len() >= 15);
     for (name, json, expect) in cases {
         check(name, Scenario::from_json(json), expect);

@@ -28,6 +28,16 @@ fn label(name: &str) -> String {
     }
 }
 
+/// The plot's points, `(t, dt / unit)`.
+struct Curves {
+    accepted: Vec<(f64, f64)>,
+    /// The last step, shortened to land on `t_end`.
+    landing: Vec<(f64, f64)>,
+    rejected: Vec<(f64, f64)>,
+    /// Each limit's proposals, and the filter's when it acted.
+    series: Vec<(String, Vec<(f64, f64)>)>,
+}
+
 /// Draws `history` to `path`; `unit` is `h/c` in seconds, `title` names the run.
 pub fn plot_dt(
     path: &str,
@@ -35,6 +45,32 @@ pub fn plot_dt(
     unit: f64,
     title: &str,
 ) -> Result<(), Box<dyn std::error::Error>> {
+    let curves = curves(history, unit);
+    let Curves {
+        accepted,
+        landing,
+        rejected,
+        series,
+    } = &curves;
+    let all = accepted
+        .iter()
+        .chain(landing)
+        .chain(rejected)
+        .chain(series.iter().flat_map(|(_, s)| s));
+    let (mut t1, mut lo, mut hi) = (0.0_f64, f64::INFINITY, 0.0_f64);
+    for &(t, y) in all {
+        t1 = t1.max(t);
+        lo = lo.min(y);
+        hi = hi.max(y);
+    }
+    if !(lo.is_finite() && hi > 0.0) {
+        return Err("nothing to plot".into());
+    }
+    draw(path, title, unit, &curves, (t1, hi))
+}
+
+/// The points of `history` in units of `unit`.
+fn curves(history: &DtHistory, unit: f64) -> Curves {
     let pts = &history.points;
     let accepted: Vec<(f64, f64)> = pts
         .iter()
@@ -75,20 +111,29 @@ pub fn plot_dt(
     if !filter.is_empty() {
         series.push(("filter".into(), filter));
     }
-    let all = accepted
-        .iter()
-        .chain(&landing)
-        .chain(&rejected)
-        .chain(series.iter().flat_map(|(_, s)| s));
-    let (mut t1, mut lo, mut hi) = (0.0_f64, f64::INFINITY, 0.0_f64);
-    for &(t, y) in all {
-        t1 = t1.max(t);
-        lo = lo.min(y);
-        hi = hi.max(y);
+    Curves {
+        accepted,
+        landing,
+        rejected,
+        series,
     }
-    if !(lo.is_finite() && hi > 0.0) {
-        return Err("nothing to plot".into());
-    }
+}
+
+/// Draws `curves` to `path`, the time axis to `t1` and the step axis with head room above
+/// `hi`.
+fn draw(
+    path: &str,
+    title: &str,
+    unit: f64,
+    curves: &Curves,
+    (t1, hi): (f64, f64),
+) -> Result<(), Box<dyn std::error::Error>> {
+    let Curves {
+        accepted,
+        landing,
+        rejected,
+        series,
+    } = curves;
     let root = SVGBackend::new(path, (1100, 650)).into_drawing_area();
     root.fill(&WHITE)?;
     let mut chart = ChartBuilder::on(&root)
@@ -118,7 +163,7 @@ pub fn plot_dt(
                 RGBColor(60, 60, 60).stroke_width(5),
             )
         });
-    for (name, s) in &series {
+    for (name, s) in series {
         let c = colour(name);
         chart
             .draw_series(DashedLineSeries::new(

@@ -250,7 +250,18 @@ fn find_failure(scene: Scene) -> (f64, f64) {
     (lo * unit, hi * unit)
 }
 
-fn main() -> ExitCode {
+/// The command line's choices.
+struct Options {
+    scene: Scene,
+    fixed: Option<f64>,
+    failure: bool,
+    rules: bool,
+    repeat: usize,
+}
+
+/// The options from the command line, or the exit code to end with (`--help`, a bad
+/// argument).
+fn parse_args() -> Result<Options, ExitCode> {
     let mut scene = Scene {
         n_grid: 128,
         t_end: 0.5,
@@ -297,19 +308,76 @@ fn main() -> ExitCode {
             "--repeat" => repeats::parse_repeat(args.next()).map(|n| repeat = n),
             "--help" | "-h" => {
                 println!("usage: mls_mpm [--grid N] [--t-end T] [--fixed-dt DT] [--find-failure] [--rules] [--fluid] [--eq56] [--generic] [--repeat N]");
-                return ExitCode::SUCCESS;
+                return Err(ExitCode::SUCCESS);
             }
             other => Err(format!("unknown argument {other}")),
         };
         if let Err(e) = parsed {
             eprintln!("error: {e}");
-            return ExitCode::from(2);
+            return Err(ExitCode::from(2));
         }
     }
     if scene.n_grid < 16 || scene.n_grid > 4096 || scene.t_end.is_nan() || scene.t_end <= 0.0 {
         eprintln!("error: --grid must be in 16..=4096 and --t-end positive");
-        return ExitCode::from(2);
+        return Err(ExitCode::from(2));
     }
+    Ok(Options {
+        scene,
+        fixed,
+        failure,
+        rules,
+        repeat,
+    })
+}
+
+/// Runs and prints the rules of thumb `dt = α·h/(c_p + |v|)`, re-evaluated every step.
+fn print_rules(scene: Scene) {
+    for alpha in [0.3, 0.4, 0.5, 0.9] {
+        let r = run_rule(scene, &|s: &MlsMpm| {
+            SoundSpeed::unit_step(&s.view())
+                .map(|u| alpha * u)
+                .map_err(|e| e.to_string())
+        });
+        println!(
+            "alpha = {alpha}: {} steps, {:.2} s wall, {}",
+            r.steps,
+            r.wall_s,
+            r.blew_up.as_deref().unwrap_or("stable")
+        );
+    }
+}
+
+/// Times `repeat` interleaved rounds of the fixed-step and the controlled run (`r` and `c`
+/// are the first) and prints the medians and the ratios.
+fn print_repeats(scene: Scene, dt: f64, repeat: usize, r: &FixedRun, c: &ControlledRun) {
+    // The two runs above were the first repeat; the repeats after it alternate the order.
+    let mut walls = [vec![r.wall_s], vec![c.wall_s]];
+    let _: Result<(), std::convert::Infallible> = repeats::more_rounds(&mut walls, repeat, |i| {
+        Ok(if i == 0 {
+            run_fixed(scene, dt).wall_s
+        } else {
+            run_controlled(scene).wall_s
+        })
+    });
+    let (fixed_median, ours_median) = (repeats::median(&walls[0]), repeats::median(&walls[1]));
+    let [lo, hi] = repeats::ratio_range(&walls[1], &walls[0]);
+    println!(
+        "wall times over {repeat} interleaved runs: fixed dt median {fixed_median:.2} s, controller median {ours_median:.2} s, ratio {:.3} (within a repeat {lo:.3} … {hi:.3})",
+        ours_median / fixed_median
+    );
+}
+
+fn main() -> ExitCode {
+    let Options {
+        scene,
+        fixed,
+        failure,
+        rules,
+        repeat,
+    } = match parse_args() {
+        Ok(o) => o,
+        Err(code) => return code,
+    };
     let s = build(scene);
     let unit = s.grid().h[0] / s.p_wave_speed();
     println!(
@@ -347,19 +415,7 @@ fn main() -> ExitCode {
     );
     if rules {
         // The rules of thumb: dt = α·h/(c_p + |v|), re-evaluated every step.
-        for alpha in [0.3, 0.4, 0.5, 0.9] {
-            let r = run_rule(scene, &|s: &MlsMpm| {
-                SoundSpeed::unit_step(&s.view())
-                    .map(|u| alpha * u)
-                    .map_err(|e| e.to_string())
-            });
-            println!(
-                "alpha = {alpha}: {} steps, {:.2} s wall, {}",
-                r.steps,
-                r.wall_s,
-                r.blew_up.as_deref().unwrap_or("stable")
-            );
-        }
+        print_rules(scene);
     }
     let c = run_controlled(scene);
     eprintln!("{}", c.refreshes);
@@ -375,22 +431,7 @@ fn main() -> ExitCode {
         c.error.as_deref().unwrap_or("reached t_end")
     );
     if repeat > 1 && c.error.is_none() && r.blew_up.is_none() {
-        // The two runs above were the first repeat; the repeats after it alternate the order.
-        let mut walls = [vec![r.wall_s], vec![c.wall_s]];
-        let _: Result<(), std::convert::Infallible> =
-            repeats::more_rounds(&mut walls, repeat, |i| {
-                Ok(if i == 0 {
-                    run_fixed(scene, dt).wall_s
-                } else {
-                    run_controlled(scene).wall_s
-                })
-            });
-        let (fixed_median, ours_median) = (repeats::median(&walls[0]), repeats::median(&walls[1]));
-        let [lo, hi] = repeats::ratio_range(&walls[1], &walls[0]);
-        println!(
-            "wall times over {repeat} interleaved runs: fixed dt median {fixed_median:.2} s, controller median {ours_median:.2} s, ratio {:.3} (within a repeat {lo:.3} … {hi:.3})",
-            ours_median / fixed_median
-        );
+        print_repeats(scene, dt, repeat, &r, &c);
     }
     if let Some((_, hi)) = failure_step {
         println!(

@@ -301,12 +301,10 @@ fn particle_to_grid(
 }
 
 impl MlsMpm {
+    /// One trial step of `dt` from the committed state (steps 1–3 of the module docs), in
+    /// `spare`'s arrays when there is one.
     fn trial_from(&self, dt: f64, spare: Option<State>) -> Result<State, StepError> {
         let c = &self.committed;
-        let grid = &self.grid;
-        let h = grid.h[0];
-        let inv = 4.0 / (h * h);
-        let n_cells = grid.cells[0] as i64;
         // The trial, in the spare state's arrays when there is one.
         let mut s = match spare {
             Some(mut s) => {
@@ -319,6 +317,30 @@ impl MlsMpm {
         // `particle_to_grid` rebuilds at the end).
         let mut vi = std::mem::take(&mut s.node_v);
         vi.clone_from(&c.node_v);
+        self.grid_update(dt, &mut vi);
+        // 2. Grid to particle.
+        s.t = c.t + dt;
+        s.step = c.step + 1;
+        self.grid_to_particle(dt, &vi, &mut s)?;
+        // 3. The new state's grid fields.
+        s.node_v = vi;
+        particle_to_grid(
+            &self.grid,
+            &self.model,
+            self.gravity,
+            &self.mass,
+            &self.volume0,
+            &mut s,
+            self.handover,
+        );
+        Ok(s)
+    }
+
+    /// Step 1: the committed nodal velocities `vi` advanced by `dt`, with mpm88's walls.
+    fn grid_update(&self, dt: f64, vi: &mut [Vector2<f64>]) {
+        let c = &self.committed;
+        let grid = &self.grid;
+        let n_cells = grid.cells[0] as i64;
         for (i, v) in vi.iter_mut().enumerate() {
             if !c.active[i] {
                 *v = Vector2::zeros();
@@ -332,9 +354,20 @@ impl MlsMpm {
                 }
             }
         }
-        // 2. Grid to particle.
-        s.t = c.t + dt;
-        s.step = c.step + 1;
+    }
+
+    /// Step 2: the trial's particle fields from the updated nodal velocities `vi`; an error
+    /// at the first particle that inverts, turns non-finite or leaves the domain.
+    fn grid_to_particle(
+        &self,
+        dt: f64,
+        vi: &[Vector2<f64>],
+        s: &mut State,
+    ) -> Result<(), StepError> {
+        let c = &self.committed;
+        let grid = &self.grid;
+        let h = grid.h[0];
+        let inv = 4.0 / (h * h);
         for p in 0..c.x.len() {
             let nodes = c.weights.nodes_of(p);
             let ws = c.weights.s_of(p);
@@ -392,18 +425,7 @@ impl MlsMpm {
                 });
             }
         }
-        // 3. The new state's grid fields.
-        s.node_v = vi;
-        particle_to_grid(
-            grid,
-            &self.model,
-            self.gravity,
-            &self.mass,
-            &self.volume0,
-            &mut s,
-            self.handover,
-        );
-        Ok(s)
+        Ok(())
     }
 
     fn view_of<'a>(&'a self, s: &'a State) -> ViewNd<'a, 2> {
