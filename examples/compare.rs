@@ -472,6 +472,7 @@ fn print_results(
     });
     if args.json {
         let doc = serde_json::json!({
+            "dim": 1,
             "scenario": args.scenario,
             "t_end": scenario.t_end,
             "particles": particles,

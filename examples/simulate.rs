@@ -11,8 +11,9 @@
 //! * default: the controller (1D: `Controller::standard`; 2D/3D: the standard limits of
 //!   `mpm_dt::limits_nd`) runs the scenario to its `t_end`; a summary is printed (one JSON
 //!   document on stdout with `--json`: `t_final`, `steps_accepted`, `steps_rejected`,
-//!   `blew_up`, `dt_min`, `dt_mean`, `dt_max`, `binding`, `velocity_error_linf` (null
-//!   without an exact solution), `energy_initial`, `energy_final`, `wall_s`);
+//!   `blew_up`, `dt_min`, `dt_min_chosen` (without the step cut to land on `t_end`),
+//!   `dt_mean`, `dt_max`, `binding`, `velocity_error_linf` (null without an exact
+//!   solution), `energy_initial`, `energy_final`, `wall_s`);
 //! * `--fixed-dt DT --steps K`: K plain steps of DT without the controller; the summary
 //!   adds `state` (`x`, `v` as lists of d-vectors, `sigma`, `F` as d×d nested row lists);
 //! * `--compare` (2D/3D): the same solver also runs to `t_end` with the fixed rules
@@ -141,6 +142,7 @@ fn stats_summary(stats: &Stats) -> Value {
         "steps_accepted": stats.accepted,
         "steps_rejected": stats.rejected,
         "dt_min": stats.dt_min,
+        "dt_min_chosen": stats.dt_min_chosen,
         "dt_mean": stats.dt_mean(),
         "dt_max": stats.dt_max,
         "binding": stats.binding,
@@ -212,7 +214,7 @@ where
     let blew_up = error.is_some() || !e.is_finite() || e > 10.0 * e0;
     let out = json!({
         "t_final": s.time(), "steps_accepted": s.step_count(), "steps_rejected": 0,
-        "blew_up": blew_up, "dt_min": dt, "dt_mean": dt, "dt_max": dt, "binding": {},
+        "blew_up": blew_up, "dt_min": dt, "dt_min_chosen": dt, "dt_mean": dt, "dt_max": dt, "binding": {},
         "velocity_error_linf": wave.map(|w| w.velocity_error(&s.view())),
         "energy_initial": e0, "energy_final": e, "error": error,
     });
@@ -369,7 +371,7 @@ fn run_1d(text: &str, args: &Args) -> Result<Value, String> {
         return Ok(json!({
             "t_final": s.time(), "steps_accepted": s.step_count(), "steps_rejected": 0,
             "blew_up": error.is_some() || !e.is_finite() || e > 10.0 * e0,
-            "dt_min": dt, "dt_mean": dt, "dt_max": dt, "binding": {},
+            "dt_min": dt, "dt_min_chosen": dt, "dt_mean": dt, "dt_max": dt, "binding": {},
             "velocity_error_linf": null, "energy_initial": e0, "energy_final": e, "error": error,
             "state": {"x": one(view.x), "v": one(view.v), "sigma": two(view.sigma), "F": two(view.f)},
         }));

@@ -42,7 +42,7 @@ impl Run {
     fn json(&self) -> Value {
         json!({
             "policy": self.policy, "steps": self.steps, "rejected": self.rejected,
-            "blew_up": self.blew_up.is_some(), "why": self.blew_up, "t_final": self.t_final,
+            "blew_up": self.blew_up.is_some(), "failure": self.blew_up, "t_final": self.t_final,
             "velocity_error_linf": self.error, "energy_drift": self.energy_drift,
             "wall_s": self.wall_s, "wall_s_runs": self.wall_s_runs,
             "dt_mean": (self.steps > 0).then(|| self.t_final / self.steps as f64),
@@ -174,6 +174,8 @@ where
         .collect();
     let doc = json!({
         "dim": D,
+        "t_end": scenario.t_end,
+        "repeats": repeat,
         "particles": s.n_particles(),
         "h_over_c": table.dt_sound,
         "dt_eq56": table.dt_eq56,
