@@ -78,7 +78,7 @@
 //! | sound speed (eq 49) | [`sound_speed::SoundSpeed`], one limit: its 1D kernel in [`stability::sound_speed`] | the same limit: its 2D/3D kernel in [`limits_nd::sound_speed`] |
 //! | stability (eq 56) | [`stability::Stability`]: certified tracker, eq 58 | [`limits_nd::StabilityNd`]: Lanczos with a motion guard, the element bound |
 //! | temporal error (eqs 20–30) | [`controller::TemporalError`] | [`limits_nd::TemporalErrorNd`] |
-//! | growth monitor | [`controller::GrowthMonitor`] (checkerboard share) | [`limits_nd::GrowthNd`] (energy) |
+//! | growth monitor | [`growth::Growth<1>`] (`GrowthMonitor`; checkerboard share, [`growth::one_d`]) | [`growth::Growth<D>`] (`GrowthNd`; energy, [`growth::nd`]) — one limit, its rule per dimension |
 //! | the standard controller | [`controller::Controller::standard`] (`Controller::<1>`) | [`controller::Controller::standard`] (`Controller::<2>`, `Controller::<3>`; gravity from `config.gravity`), or [`controller::standard_limits`] + [`controller::Controller::new`] |
 //! | reference solver | [`mpm::ReferenceStepper`] | [`nd::SolverNd`] |
 //! | scenarios, exact problems | [`scenario`], [`problems`] | [`nd::scenario`], [`nd::problems`] |
@@ -116,6 +116,7 @@ pub mod dimension;
 pub mod estimators;
 pub mod fmt_num;
 pub mod grid;
+pub mod growth;
 pub mod lanczos;
 pub mod limit;
 pub mod limits_nd;

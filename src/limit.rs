@@ -137,7 +137,7 @@ impl Judgement {
 /// | `stability` (2D/3D, APIC) | `transfer_gain` | `1 + p` of [`crate::limits_nd::transfer`] |
 /// | `temporal_error` | `dsm_v`, `dsm_sigma`, `dsm_particles` | the velocity and stress parts of `dsm` (eqs 20–30) and the particles in the norm |
 /// | `growth` (1D) | `growth_indicator`, `growth_ratio` | the monitor's indicator of the trial and, on a detection, the last window maximum over the first |
-/// | `growth` (2D/3D) | `energy` | the watched energy `E` of the trial ([`crate::limits_nd::growth`]) |
+/// | `growth` (2D/3D) | `energy` | the watched energy `E` of the trial ([`crate::growth::nd`]) |
 /// | any, after a growth detection | `safety_scale` | the factor every limit's proposal is multiplied by for the rest of the run |
 pub mod metric {
     /// Scaled temporal error (eqs 20–30), `dsm ≤ 1` accepts; fed to the filter.

@@ -306,7 +306,7 @@ fn the_growth_monitor_keeps_the_moduli_of_its_first_view() {
         lame_mu: &mu,
         ..first
     };
-    let mut monitor = GrowthNd::new(Vector::<2>::zeros(), 25, 0.1);
+    let mut monitor = GrowthNd::<2>::new(Vector::<2>::zeros(), 25, 0.1);
     let own = monitor.energies(&stiffer);
     monitor.propose(&first).expect("no opinion");
     let kept = monitor.energies(&stiffer);

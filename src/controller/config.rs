@@ -16,7 +16,7 @@
 //! The whole struct is the `controller` field of a scenario file (JSON).
 
 use super::filter::FilterPreset;
-use super::growth::GrowthConfig;
+use crate::growth::GrowthConfig;
 use crate::limits_nd::StabilityNdConfig;
 use crate::sound_speed::SoundSpeedConfig;
 use crate::stability::{StabilityConfig, StabilityError};

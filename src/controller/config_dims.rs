@@ -27,7 +27,7 @@
 #![allow(clippy::float_cmp)]
 
 use super::config::{ConfigError, ControllerConfig};
-use super::growth::GrowthConfig;
+use crate::growth::GrowthConfig;
 use crate::limits_nd::StabilityNdConfig;
 use crate::stability::StabilityConfig;
 

@@ -53,24 +53,23 @@ mod decision;
 mod door;
 mod error;
 mod filter;
-mod growth;
 mod scaled;
 mod standard;
 mod stats;
 mod temporal_error;
 mod temporal_kernels;
 
+pub use crate::growth::{
+    checkerboard_share, total_energy, GrowthConfig, GrowthIndicator, GrowthMonitor, GROWTH,
+};
+#[cfg(feature = "reference")]
+pub(crate) use crate::growth::{particle_energy, sum_energy_lanes, ENERGY_LANES};
 pub use crate::temporal::{deferral, TemporalErrorConfig};
 pub use checkpoint::{Checkpoint, ControllerCheckpoint, ControllerState, LimitCheckpoint};
 pub use config::{ConfigError, ControllerConfig};
 pub use decision::{bound, metric, Decision, LimitRecord, Outcome};
 pub use error::ControllerError;
 pub use filter::{FilterPreset, SoderlindFilter, DSM_FLOOR};
-pub use growth::{
-    checkerboard_share, total_energy, GrowthConfig, GrowthIndicator, GrowthMonitor, GROWTH,
-};
-#[cfg(feature = "reference")]
-pub(crate) use growth::{particle_energy, sum_energy_lanes, ENERGY_LANES};
 pub use scaled::SafetyScaled;
 pub use standard::{standard_limits, StandardLimits};
 pub use stats::Stats;

@@ -12,17 +12,18 @@
 //! | sound speed | [`crate::sound_speed::SoundSpeed`] | the same |
 //! | stability | [`crate::stability::Stability`] | [`crate::limits_nd::StabilityNd`] |
 //! | temporal error | [`super::TemporalError`] | [`crate::limits_nd::TemporalErrorNd`] |
-//! | growth | [`super::GrowthMonitor`] | [`crate::limits_nd::GrowthNd`] (with `config.gravity`) |
+//! | growth | [`crate::growth::Growth<1>`] | [`crate::growth::Growth<D>`] (with `config.gravity`) |
 //!
 //! The dimension is the controller's type parameter: `Controller::<2>::standard(config)`.
 //! Where the stepper fixes it, it is inferred (`Controller::standard(config)` followed by a
 //! run of a 1D stepper is the 1D controller).
 
+use super::TemporalError;
 use super::{ConfigError, Controller, ControllerConfig, ControllerError};
-use super::{GrowthMonitor, TemporalError};
 use crate::dimension::{Dim, Dimension};
+use crate::growth::Growth;
 use crate::limit::StepLimit;
-use crate::limits_nd::{GrowthNd, StabilityNd, StabilityNdConfig, TemporalErrorNd};
+use crate::limits_nd::{StabilityNd, StabilityNdConfig, TemporalErrorNd};
 use crate::nd::{Vector, ViewNd};
 use crate::sound_speed::SoundSpeed;
 
@@ -73,7 +74,7 @@ impl StandardLimits<1> for Dim<1> {
         }
         if config.growth.enabled {
             limits.push(Box::new(
-                GrowthMonitor::new(config.growth.clone()).map_err(invalid)?,
+                Growth::<1>::new(config.growth.clone()).map_err(invalid)?,
             ));
         }
         Ok(limits)
@@ -199,7 +200,7 @@ where
     }
     if config.growth.enabled {
         let growth = &config.growth;
-        limits.push(Box::new(GrowthNd::new(
+        limits.push(Box::new(Growth::<D>::new(
             gravity,
             growth.windows as usize * growth.window as usize,
             growth.energy_tol,

@@ -8,7 +8,8 @@
 //!   ([`bound_tracking`]);
 //! * [`TemporalErrorNd`] — the temporal local error of eqs 20–30, judged by `dsm ≤ 1`
 //!   (the controller's filter turns `dsm` into a proposal);
-//! * [`GrowthNd`] — rejects a step whose mechanical energy grows and lowers the safety;
+//! * [`GrowthNd`] — rejects a step whose mechanical energy grows and lowers the safety (the
+//!   one growth monitor of every dimension, [`crate::growth::Growth<D>`]);
 //! * [`critical`] — the verification table of a d-dimensional layout (sound-speed step,
 //!   dense eq 56, empirical bisection on real runs).
 //!
