@@ -436,3 +436,59 @@ fn work_precision_reports_errors_against_the_reference() {
         .is_some());
     assert_eq!(doc["fixed_time_to_match"].as_array().map(Vec::len), Some(2));
 }
+
+#[test]
+fn custom_stepper_2d_runs_to_t_end_and_reports_json() {
+    let v = run_json("custom_stepper_2d", &["--json"]);
+    // The same keys as the 1D example's, plus the dimension.
+    let one_d = run_json("custom_stepper", &["--json"]);
+    let keys = |v: &serde_json::Value| -> Vec<String> {
+        v.as_object().expect("an object").keys().cloned().collect()
+    };
+    let mut expected = keys(&one_d);
+    expected.push("dim".into());
+    expected.sort();
+    assert_eq!(keys(&v), expected);
+    assert_eq!(v["dim"], serde_json::json!(2));
+    assert_eq!(v["ok"], serde_json::Value::Bool(true), "{v}");
+    let t_end = 2.0;
+    let t_final = v["t_final"].as_f64().unwrap();
+    assert!(
+        (t_final - t_end).abs() <= 1e-12 * t_end,
+        "t_final {t_final}"
+    );
+    assert!(v["steps_accepted"].as_u64().unwrap() > 0);
+    assert_eq!(v["steps_rejected"].as_u64(), Some(0));
+    // The user's limit is the tightest here (0.5 h/(c + |v|), c = √1.2, h = 1/16; the
+    // standard sound-speed and stability limits allow about 2× and 2.7× that): it must
+    // bind, and no step may exceed it.
+    let binding = v["binding"].as_object().expect("binding counts");
+    assert!(binding.contains_key("user_cfl"), "{binding:?}");
+    let known = [
+        "user_cfl",
+        "sound_speed",
+        "stability",
+        "temporal_error",
+        "growth",
+        "hold",
+        "t_end",
+        "growth_cap",
+        "filter",
+        "dt_initial",
+    ];
+    assert!(
+        binding.keys().all(|k| known.contains(&k.as_str())),
+        "{binding:?}"
+    );
+    let cfl = 0.5 * (1.0 / 16.0) / 1.2_f64.sqrt();
+    let dt_max = v["dt_max"].as_f64().unwrap();
+    assert!(
+        dt_max > 0.5 * cfl && dt_max <= cfl,
+        "dt_max {dt_max} vs {cfl}"
+    );
+    let (dt_min, dt_mean) = (
+        v["dt_min"].as_f64().unwrap(),
+        v["dt_mean"].as_f64().unwrap(),
+    );
+    assert!(dt_min <= dt_mean && dt_mean <= dt_max);
+}
