@@ -1,0 +1,233 @@
+//! Capability: every field of the controller config that applies in every dimension is
+//! reachable from the JSON config and changes what a controlled 2D run does. Each field is
+//! set against a base config in which it is consulted (`tests/config_dimensions.rs` does
+//! the same for the 2D/3D-only `stability_nd` and growth fields): the decision logs of the
+//! two runs (each attempt's outcome, step, binding bound, rejection cause and measured
+//! temporal error) and how the runs ended must differ, or the run must end with the error
+//! the field names.
+
+use mpm_dt::controller::{Controller, ControllerConfig, ControllerError, Decision};
+use mpm_dt::nd::{GridNd, MaterialNd, ParticlesNd, ShapeNd, SolverNd, Vector};
+use mpm_dt::Boundary;
+
+fn config(json: &str) -> ControllerConfig {
+    ControllerConfig::from_json(json).unwrap_or_else(|e| panic!("{json}: {e}"))
+}
+
+/// A jittered, neo-Hookean GIMP block moving across a periodic 8×8 grid (the layout of
+/// `tests/config_dimensions.rs`), under the body force `gravity`.
+fn block(gravity: [f64; 2]) -> SolverNd<2> {
+    let grid = GridNd::<2>::new([Boundary::Periodic; 2], [8, 8], [1.0, 1.0]);
+    let material = MaterialNd::NeoHookean {
+        youngs_modulus: 1.0,
+        poisson_ratio: 0.3,
+    };
+    let mut particles = ParticlesNd::uniform(&grid, [2, 2], 1.0, material);
+    let mut s: u64 = 7;
+    let mut next = move || {
+        s = s
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+    };
+    for p in 0..particles.len() {
+        let x = particles.x[p];
+        for a in 0..2 {
+            particles.x[p][a] += 0.3 * particles.domain[p][a] * next();
+        }
+        particles.v[p][0] = 0.2 + 0.1 * (2.0 * std::f64::consts::PI * x[1]).sin();
+        particles.v[p][1] = 0.1 * (2.0 * std::f64::consts::PI * x[0]).sin();
+    }
+    SolverNd::new(grid, ShapeNd::Gimp, particles, Vector::<2>::from(gravity)).unwrap()
+}
+
+/// What a controlled run did: one line per attempt, then how the run ended.
+#[derive(Debug, PartialEq)]
+struct Run {
+    log: Vec<String>,
+    end: String,
+}
+
+impl Run {
+    fn rejections(&self) -> usize {
+        self.log
+            .iter()
+            .filter(|l| l.starts_with("Rejected"))
+            .count()
+    }
+}
+
+/// The standard 2D controller of `c` (its own `gravity` goes to the growth monitor) on the
+/// block under the body force `gravity`, to `t_end`.
+fn run(c: &ControllerConfig, gravity: [f64; 2], t_end: f64) -> Run {
+    let mut controller = Controller::<2>::standard(c.clone()).unwrap();
+    let mut solver = block(gravity);
+    let mut log = Vec::new();
+    let mut record = |d: &Decision| {
+        log.push(format!(
+            "{:?} {:e} {} {:?} {:?}",
+            d.outcome,
+            d.dt,
+            d.binding,
+            d.cause,
+            d.dsm.map(|e| format!("{e:e}"))
+        ));
+    };
+    let end = match controller.run_until(&mut solver, t_end, &mut record) {
+        Ok(_) => "finished".to_string(),
+        Err(ControllerError::StepTooSmall { .. }) => "StepTooSmall".to_string(),
+        Err(ControllerError::TooManyRejections { count, .. }) => {
+            format!("TooManyRejections({count})")
+        }
+        Err(ControllerError::GrowthPersists { detections, .. }) => {
+            format!("GrowthPersists({detections})")
+        }
+        Err(e) => format!("error: {e}"),
+    };
+    Run { log, end }
+}
+
+const T_END: f64 = 2.0;
+
+/// A base where the temporal error limit (through the filter) sets the steps.
+const ACCURATE: &str = r#""temporal": {"rtol": 1e-3}"#;
+
+/// A base whose first step is far too large for a tight tolerance: rejected by the temporal
+/// error (once; its retry is accepted).
+macro_rules! rejecting {
+    () => {
+        r#""temporal": {"rtol": 1e-4}, "dt_initial": 0.05"#
+    };
+}
+const REJECTING: &str = rejecting!();
+
+/// A base that grows (the stability limit off, 1.7 times the sound-speed step, as in
+/// `every_growth_setting_changes_a_2d_run`): growth rejections, which suggest no step.
+macro_rules! unstable {
+    () => {
+        r#""stability": null, "sound_speed": {"alpha": 1.7}, "temporal": {"enabled": false}"#
+    };
+}
+const UNSTABLE: &str = unstable!();
+
+/// Not covered: `max_shrink_repeated` acts only from the second consecutive rejection of one
+/// step, and none of these bases rejects a step twice in a row (the temporal retry after
+/// `dt_initial` is accepted, growth clears its history on detection); a base that does was
+/// not found in the time given, so it is left out rather than asserted vacuously.
+///
+/// `(changed, base)`: the bodies of two configs `{…}`, the changed one setting the field
+/// against a base where it is consulted.
+const SHARED_CHANGES: [(&str, &str); 23] = [
+    (r#""dt_initial": 0.01"#, ""),
+    (r#""dt_max": 0.02"#, ""),
+    (r#""temporal": {"rtol": 1e-3}, "safety": 0.5"#, ACCURATE),
+    (
+        r#""dt_initial": 1e-4, "max_growth": 1.1"#,
+        r#""dt_initial": 1e-4"#,
+    ),
+    (concat!(unstable!(), r#", "hold_growth": 1.0"#), UNSTABLE),
+    (
+        concat!(
+            rejecting!(),
+            r#", "max_shrink_repeated": 0.5, "min_shrink": 0.3"#
+        ),
+        concat!(rejecting!(), r#", "max_shrink_repeated": 0.5"#),
+    ),
+    (
+        concat!(rejecting!(), r#", "max_shrink_first": 0.15"#),
+        REJECTING,
+    ),
+    (concat!(unstable!(), r#", "reject_shrink": 0.3"#), UNSTABLE),
+    (r#""temporal": {"rtol": 1e-3}, "filter": "i""#, ACCURATE),
+    (r#""temporal": {"rtol": 1e-3}, "order": 2"#, ACCURATE),
+    (r#""temporal": {"rtol": 1e-3, "enabled": false}"#, ACCURATE),
+    (r#""temporal": {"rtol": 1e-2}"#, ACCURATE),
+    (r#""temporal": {"rtol": 1e-3, "atol_rel": 1e-5}"#, ACCURATE),
+    (r#""temporal": {"rtol": 1e-3, "atol_v": 0.1}"#, ACCURATE),
+    (r#""temporal": {"rtol": 1e-3, "atol_sigma": 0.1}"#, ACCURATE),
+    (
+        r#""temporal": {"rtol": 0.5, "max_deferred": 0}"#,
+        r#""temporal": {"rtol": 0.5}"#,
+    ),
+    (
+        r#""temporal": {"rtol": 0.5, "defer_below": 0.0}"#,
+        r#""temporal": {"rtol": 0.5}"#,
+    ),
+    (r#""sound_speed": {"alpha": 0.3}"#, ""),
+    (r#""stability": {"safety": 0.5}"#, ""),
+    (
+        concat!(unstable!(), r#", "growth": {"enabled": false}"#),
+        UNSTABLE,
+    ),
+    (r#""dt_min": 1.0"#, ""),
+    (
+        r#""max_consecutive_rejections": 1, "temporal": {"rtol": 1e-4}, "dt_initial": 0.05"#,
+        REJECTING,
+    ),
+    (
+        concat!(unstable!(), r#", "growth": {"min_safety_scale": 0.95}"#),
+        UNSTABLE,
+    ),
+];
+
+fn with(fields: &str) -> ControllerConfig {
+    config(&format!("{{{fields}}}"))
+}
+
+#[test]
+fn every_shared_field_changes_a_2d_run() {
+    for (changed, base) in SHARED_CHANGES {
+        let reference = run(&with(base), [0.0; 2], T_END);
+        let other = run(&with(changed), [0.0; 2], T_END);
+        assert!(reference.log.len() > 5, "too short a run: {{{base}}}");
+        assert_ne!(
+            other, reference,
+            "{{{changed}}} changed nothing against {{{base}}}"
+        );
+    }
+}
+
+/// The fields whose change ends the run name their error.
+#[test]
+fn the_ending_fields_end_the_run_with_their_error() {
+    assert_eq!(run(&with(""), [0.0; 2], T_END).end, "finished");
+    assert_eq!(
+        run(&with(r#""dt_min": 1.0"#), [0.0; 2], T_END).end,
+        "StepTooSmall"
+    );
+    assert_eq!(run(&with(REJECTING), [0.0; 2], T_END).end, "finished");
+    assert_eq!(
+        run(
+            &with(&format!(r#"{REJECTING}, "max_consecutive_rejections": 1"#)),
+            [0.0; 2],
+            T_END
+        )
+        .end,
+        "TooManyRejections(1)"
+    );
+    assert_eq!(run(&with(UNSTABLE), [0.0; 2], T_END).end, "finished");
+    assert!(run(&with(UNSTABLE), [0.0; 2], T_END).rejections() > 0);
+    assert_eq!(
+        run(
+            &with(&format!(
+                r#"{UNSTABLE}, "growth": {{"min_safety_scale": 0.95}}"#
+            )),
+            [0.0; 2],
+            T_END
+        )
+        .end,
+        "GrowthPersists(1)"
+    );
+}
+
+/// The body force of `gravity`: the growth monitor counts its potential energy, so a
+/// falling block under the same config without it reads its rising kinetic energy as
+/// growth.
+#[test]
+fn gravity_changes_a_2d_run() {
+    let base = r#""growth": {"window": 5}"#;
+    let g = [0.0, -1.0];
+    let reference = run(&with(base), g, 2.0);
+    let other = run(&with(&format!(r#"{base}, "gravity": [0.0, -1.0]"#)), g, 2.0);
+    assert_ne!(other, reference);
+}
