@@ -6,11 +6,13 @@
 use mpm_dt::controller::standard_limits;
 use mpm_dt::controller::{ConfigError, Controller, ControllerConfig, ControllerError, Decision};
 use mpm_dt::limits_nd::STABILITY;
-use mpm_dt::nd::{GridNd, MaterialNd, ParticlesNd, ShapeNd, SolverNd, Vector};
-use mpm_dt::Boundary;
+use mpm_dt::nd::Vector;
 
+#[path = "common/moving_block.rs"]
+mod moving_block;
 #[path = "common/opt_in.rs"]
 mod opt_in;
+use moving_block::moving_block;
 use opt_in::OptIn;
 
 /// `{"<outer>": {"<inner>": value}}` parsed and validated (no dimension yet).
@@ -181,33 +183,13 @@ fn out_of_range_stability_nd_fields_name_their_path() {
     }
 }
 
-/// A jittered, neo-Hookean GIMP block moving across a periodic grid (the motion guard, the
-/// moduli and the nodal masses all change), as the reference solver or opting in with the
-/// element bound from its "own pass" (the library's function).
+/// The moving block (`common/moving_block.rs`), as the reference solver or opting in with
+/// the element bound from its "own pass" (the library's function).
 fn block(opt_in: bool) -> OptIn {
-    let grid = GridNd::<2>::new([Boundary::Periodic; 2], [8, 8], [1.0, 1.0]);
-    let material = MaterialNd::NeoHookean {
-        youngs_modulus: 1.0,
-        poisson_ratio: 0.3,
-    };
-    let mut particles = ParticlesNd::uniform(&grid, [2, 2], 1.0, material);
-    let mut s: u64 = 7;
-    let mut next = move || {
-        s = s
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-    };
-    for p in 0..particles.len() {
-        let x = particles.x[p];
-        for a in 0..2 {
-            particles.x[p][a] += 0.3 * particles.domain[p][a] * next();
-        }
-        particles.v[p][0] = 0.2 + 0.1 * (2.0 * std::f64::consts::PI * x[1]).sin();
-        particles.v[p][1] = 0.1 * (2.0 * std::f64::consts::PI * x[0]).sin();
+    OptIn {
+        solver: moving_block([0.0, 0.0]),
+        on: opt_in,
     }
-    let solver = SolverNd::new(grid, ShapeNd::Gimp, particles, Vector::<2>::zeros()).unwrap();
-    OptIn { solver, on: opt_in }
 }
 
 /// What a controlled run of the block did: every decision's step, outcome and the
