@@ -17,9 +17,10 @@
 //!
 //! and between refreshes proposes from the cached value, scaled for the moduli's growth.
 //!
-//! **The calibrated bound** (the default under FLIP, and under APIC on solids). At every refresh the element bound
-//! `B ≥ λmax` ([`super::element_bound`]) of the same state is evaluated too, and between
-//! refreshes the proposal is the Lanczos value scaled by `B`'s rise since then,
+//! **The calibrated bound** (the default under FLIP, and under APIC on solids). At every
+//! refresh the element bound `B ≥ λmax` ([`super::element_bound`]) of the same state is
+//! evaluated too, and between refreshes the proposal is the Lanczos value scaled by `B`'s
+//! rise since then,
 //! `λ_L·max(r, B/B_L)`, until `B` has drifted by `bound_drift` or `bound_age` proposals
 //! have passed; the motion guard is then not read where the stepper supplies `B`, and on
 //! the generic path it calls for `B` instead of Lanczos ([`super::bound_tracking`]).
@@ -27,9 +28,10 @@
 //! Under APIC the calibrated bound is used on solids only: while every refresh has found
 //! every particle with shear stiffness (`μ_t > 0`; [`super::bound_tracking`] "Under APIC").
 //!
-//! **Bound mode** (with `bound_drift < 0`, and under APIC otherwise). At every refresh the element bound `B ≥ λmax`
-//! ([`super::element_bound`]) of the same state is evaluated too. Where it is close to the
-//! Lanczos value (within `1 + bound_slack`; where the stepper supplies `B` from its own
+//! **Bound mode** (with `bound_drift < 0`, and under APIC otherwise). At every refresh the
+//! element bound `B ≥ λmax` ([`super::element_bound`]) of the same state is evaluated
+//! too. Where it is close to the Lanczos value (within `1 + bound_slack`; where the
+//! stepper supplies `B` from its own
 //! pass, also wherever the Lanczos products it saves outweigh the shorter step), the next
 //! proposals step on the current state's `B` instead — guaranteed in the frozen-particle
 //! sense, no motion guard, no Lanczos — until `bound_age` proposals have passed; and a
