@@ -8,6 +8,8 @@ use mpm_dt::controller::{ConfigError, Controller, ControllerConfig, ControllerEr
 use mpm_dt::limits_nd::STABILITY;
 use mpm_dt::nd::Vector;
 
+#[path = "common/jitter.rs"]
+mod jitter;
 #[path = "common/moving_block.rs"]
 mod moving_block;
 #[path = "common/opt_in.rs"]

@@ -12,6 +12,8 @@ fn config(json: &str) -> ControllerConfig {
     ControllerConfig::from_json(json).unwrap_or_else(|e| panic!("{json}: {e}"))
 }
 
+#[path = "common/jitter.rs"]
+mod jitter;
 #[path = "common/moving_block.rs"]
 mod moving_block;
 use moving_block::moving_block as block;
