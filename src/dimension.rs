@@ -64,6 +64,13 @@ pub trait StateView {
     /// The O(n) part of the door check ([`crate::view_check`]): a finite state, weights that
     /// form a partition of unity with complete gradients.
     fn check_contents(&self) -> Result<(), ViewError>;
+
+    /// Whether the view holds its particle and nodal arrays; `false` for a 2D/3D
+    /// summary-only view ([`ViewNd::summary_only`]) of a stepper handing over its arrays
+    /// on demand ([`crate::Stepper::provide_arrays_on_demand`]).
+    fn holds_arrays(&self) -> bool {
+        true
+    }
 }
 
 impl StateView for View<'_> {
@@ -113,10 +120,19 @@ impl<const D: usize> StateView for ViewNd<'_, D> {
         ViewNd::check_contents(self)
     }
 
+    fn holds_arrays(&self) -> bool {
+        ViewNd::holds_arrays(self)
+    }
+
     fn first_nonfinite(&self) -> Option<(&'static str, usize, f64)> {
         // The stepper's own check, when it made one.
         if self.summary.is_some_and(|s| s.finite) {
             return None;
+        }
+        if !self.holds_arrays() {
+            // A summary-only view whose summary is not finite: no particle to name until
+            // its arrays are loaded.
+            return Some(("summary", 0, f64::NAN));
         }
         fn scan<'b, I: Iterator<Item = &'b f64>>(p: usize, it: I) -> Option<(usize, f64)> {
             it.copied().find(|v| !v.is_finite()).map(|v| (p, v))

@@ -88,6 +88,13 @@ pub trait GrowthRule<T: Dimension>: Clone + std::fmt::Debug {
     /// Records the readings of an accepted state.
     fn record(&mut self, sample: Self::Sample);
 
+    /// Whether the rule reads the arrays of `state` (and of the other view of the same
+    /// call) rather than only its summary ([`StepLimit::reads_arrays`]). Default `true`.
+    fn reads_arrays(&self, state: &T::View<'_>) -> bool {
+        let _ = state;
+        true
+    }
+
     /// Called when an attempt was rejected with cause growth (by this monitor or another
     /// limit).
     fn growth_rejected(&mut self);
@@ -203,6 +210,14 @@ where
             _ => self.rule.sample(after),
         };
         self.rule.record(sample);
+    }
+
+    fn reads_arrays(
+        &self,
+        _call: crate::limit::LimitCall,
+        state: &<Dim<D> as Dimension>::View<'_>,
+    ) -> bool {
+        self.rule.reads_arrays(state)
     }
 
     fn rejected(&mut self, _dt: f64, cause: RejectCause) {

@@ -146,7 +146,9 @@ pub use testbench::{memory, mpm, problems, scenario};
 
 pub use dimension::{Dim, Dimension, StateView, ViewOf};
 pub use grid::{Boundary, Grid};
-pub use limit::{Judgement, LimitError, Metrics, Proposal, RejectCause, StepLimit, Verdict};
+pub use limit::{
+    Judgement, LimitCall, LimitError, Metrics, Proposal, RejectCause, StepLimit, Verdict,
+};
 pub use nd::ViewNd;
 pub use nodal_stiffness::NodalStiffness;
 pub use pass_summary::PassSummary;

@@ -196,6 +196,23 @@ pub enum LimitError {
     },
 }
 
+/// A call of a limit that [`StepLimit::reads_arrays`] asks about.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum LimitCall {
+    /// [`StepLimit::propose`] on the committed state.
+    Propose,
+    /// [`StepLimit::judge`] of a trial of step `dt`.
+    Judge {
+        /// The trial's step.
+        dt: f64,
+    },
+    /// [`StepLimit::accepted`] of a trial of step `dt`.
+    Accepted {
+        /// The trial's step.
+        dt: f64,
+    },
+}
+
 /// One constraint on the time step. Object safe: the controller holds
 /// `Box<dyn StepLimit<D>>` (`D = 1` by default; [`crate::dimension`]).
 pub trait StepLimit<const D: usize = 1>
@@ -231,6 +248,19 @@ where
     /// the answer after the proposal).
     fn reads_nodal_stiffness(&self) -> bool {
         false
+    }
+
+    /// Whether this limit's `call` reads the particle or nodal arrays of the views it is
+    /// given (for [`LimitCall::Propose`], `state` is the committed view; for a judgement or
+    /// an acceptance, the trial's; either may be summary-only). The controller of a stepper
+    /// that hands over its arrays on demand ([`crate::Stepper::provide_arrays_on_demand`])
+    /// loads them exactly when some limit answers `true`. Default `true`: a limit that does
+    /// not say is always given full views. An answer must not depend on the arrays (they
+    /// may be absent) and a `false` must be kept: the call then reads only the views'
+    /// times, steps, grids and summaries.
+    fn reads_arrays(&self, call: LimitCall, state: &ViewOf<'_, D>) -> bool {
+        let _ = (call, state);
+        true
     }
 
     /// Whether this limit reads [`crate::PassSummary::element_bound`] (default `false`); the

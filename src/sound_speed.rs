@@ -72,6 +72,12 @@ pub trait SignalSpeeds {
     /// the first particle whose fields make it meaningless (a non-finite or non-positive
     /// modulus or density, a non-finite velocity).
     fn sound_unit_step(&self) -> Result<f64, LimitError>;
+
+    /// Whether [`Self::sound_unit_step`] takes the stepper's own value (no pass over the
+    /// particles). Default `false`.
+    fn supplies_sound_unit_step(&self) -> bool {
+        false
+    }
 }
 
 /// The speed-of-sound limit `dt ≤ α min_p min_a h_a/(c_p + |v_{p,a}|)` (module docs), for
@@ -131,6 +137,12 @@ where
         if factor > 0.0 && factor <= 1.0 {
             self.config.alpha *= factor;
         }
+    }
+
+    /// Only a proposal reads the arrays, and only where the view's summary carries no
+    /// finite speed-of-sound step.
+    fn reads_arrays(&self, call: crate::limit::LimitCall, state: &ViewOf<'_, D>) -> bool {
+        call == crate::limit::LimitCall::Propose && !state.supplies_sound_unit_step()
     }
 
     fn propose(&mut self, state: &ViewOf<'_, D>) -> Result<Proposal, LimitError> {

@@ -173,6 +173,41 @@ where
         false
     }
 
+    /// Asks the stepper to hand over its particle and nodal arrays on demand (`true`) from
+    /// now on: its [`Self::view`] and [`Self::trial_view`] may then be summary-only
+    /// ([`crate::nd::ViewNd::summary_only`]: the state's time, step, grid and pass summary,
+    /// no arrays) until the controller calls [`Self::load_arrays`] for that state. Returns
+    /// whether it does. For a solver whose particles live elsewhere — on a GPU, in another
+    /// process, in Python — so that a step hands over a few numbers, not its arrays.
+    ///
+    /// The controller asks only in a single-process run, and loads a state's arrays
+    /// exactly when one of its limits declares that its next call reads them
+    /// ([`crate::StepLimit::reads_arrays`]; a limit that does not say reads them always),
+    /// when the door check of the committed view is due (the first view, then every
+    /// [`crate::view_check::VIEW_CHECK_CADENCE`]th step) and when a trial's summary is not
+    /// finite (to name the particle). With the standard limits that is a λmax refresh, a
+    /// temporal-error check and those door checks; a stepper whose summary lacks the
+    /// element bound or the speed-of-sound step has its arrays loaded at every step.
+    ///
+    /// What the stepper gives up: a state whose arrays are never loaded is not checked by
+    /// the library (a particle outside the grid or inverted is the stepper's to report, as
+    /// a [`StepError`] from [`Self::try_step`]); its summary must be marked finite only
+    /// when every value the summary covers is. The default does not hand over on demand.
+    fn provide_arrays_on_demand(&mut self, on: bool) -> bool {
+        let _ = on;
+        false
+    }
+
+    /// Makes the arrays of the committed state (`trial == false`) or of the pending trial
+    /// (`true`) part of the next [`Self::view`] / [`Self::trial_view`]; a no-op for a state
+    /// already loaded and for a stepper that does not hand over on demand. A retryable
+    /// error for a trial (non-finite, inverted, out of the domain, `Failed`) rejects it as
+    /// if [`Self::try_step`] had returned it; any other error ends the run.
+    fn load_arrays(&mut self, trial: bool) -> Result<(), StepError> {
+        let _ = trial;
+        Ok(())
+    }
+
     /// Asks the stepper to attach a [`PassSummary`] ([`View::summary`]; in 2D/3D a
     /// [`crate::nd::SummaryNd`], [`crate::nd::ViewNd::summary`]) to the states its passes
     /// compute from now on (`true`) or to stop (`false`); returns whether it does. The

@@ -11,7 +11,9 @@ drives a solver written in Python -- numpy, taichi, warp -- through a small prot
     decision = ctrl.step(stepper)
 
 The stepper has ``time()``, ``try_step(dt)``, ``accept()``, ``reject()`` and
-``state(trial) -> dict`` (the keys are listed in ``help(mpm_dt.critical_dt)``).
+``state(trial) -> dict`` (the keys are listed in ``help(mpm_dt.critical_dt)``); with a
+``summary(trial) -> dict`` method as well it hands over its arrays only when a limit
+needs them (``help(mpm_dt.Controller)``).
 ``mpm_dt.critical_dt(state)`` and ``mpm_dt.max_stable_modulus(state, dt)`` answer "what
 step is stable here" and "how stiff may the material be at this step" for one state.
 """

@@ -20,6 +20,12 @@ class Stepper(Protocol):
     def reject(self) -> None: ...
     def state(self, trial: bool) -> StateDict: ...
 
+class StepperOnDemand(Stepper, Protocol):
+    """A stepper that hands over on demand: its summary after every trial, its arrays
+    (``state``) only when the controller asks (``help(mpm_dt.Controller)``)."""
+
+    def summary(self, trial: bool) -> dict[str, Any]: ...
+
 class Controller:
     def __init__(
         self,

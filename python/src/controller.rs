@@ -152,6 +152,16 @@ where
 /// ``mpm_dt.critical_dt`` for the keys). Any other exception raised by the stepper or by
 /// ``on_decision`` ends the run and propagates unchanged.
 ///
+/// A stepper that also has ``summary(trial: bool) -> dict`` hands over on demand: after
+/// each trial the controller reads only that dict (the keys of a state's ``"summary"``:
+/// ``kinetic``, ``strain``, ``first_moment``, and for the saving ``element_bound`` and
+/// ``sound_unit_step``) and calls ``state(trial)`` only when a limit needs the arrays (a
+/// ``lambda_max`` refresh or the layout check on its cadence, a temporal-error check, the
+/// state check every 64 steps, a summary that is not finite). A state whose arrays are not
+/// read is not checked by the package: such a stepper raises ``mpm_dt.StepFailed`` itself
+/// (in ``try_step`` or ``summary(True)``) for a particle outside the grid or inverted. For
+/// a solver whose particles live on a GPU this avoids copying them out at every step.
+///
 /// Every attempt's decision goes to ``on_decision`` (a dict with the fields of the Rust
 /// ``Decision``: ``step``, ``attempt``, ``t``, ``dt``, ``limits``, ``filter_dt``,
 /// ``binding``, ``bound58``, ``lambda_max``, ``dsm``, ``outcome``, ``cause``,

@@ -12,6 +12,10 @@
 //! * any other Python exception (in any method, in `on_decision`), or an invalid trial
 //!   dict: kept here, the run is ended with `StepError::Other`, and the caller re-raises
 //!   the kept exception unchanged (with its traceback).
+//!
+//! A stepper with a `summary(trial)` method hands over on demand ([`on_demand`]).
+
+mod on_demand;
 
 use crate::errors::is_step_failed;
 use crate::state::{Fault, StateNd};
@@ -34,6 +38,12 @@ pub struct PyStepper<'py, const D: usize> {
     spare: Option<Box<StateNd<D>>>,
     step: u64,
     pending: Pending,
+    /// Whether the stepper hands over its arrays on demand ([`on_demand`]).
+    on_demand: bool,
+    /// Whether the committed state's and the trial's arrays are read (always, unless
+    /// [`Self::on_demand`]).
+    committed_loaded: bool,
+    trial_loaded: bool,
 }
 
 /// `obj.time()` as a float.
@@ -77,6 +87,13 @@ impl<'py, const D: usize> PyStepper<'py, D> {
         committed
             .read(&dict, &gravity, t, step)
             .map_err(|f| f.into_pyerr(py, "the committed state (state(False))"))?;
+        let on_demand = on_demand::offers(&obj)?;
+        if on_demand {
+            committed.summary = Some(
+                on_demand::py_summary(&obj, false)
+                    .map_err(|f| f.into_pyerr(py, "the committed summary (summary(False))"))?,
+            );
+        }
         Ok(Self {
             obj,
             gravity,
@@ -85,6 +102,9 @@ impl<'py, const D: usize> PyStepper<'py, D> {
             spare: None,
             step,
             pending,
+            on_demand,
+            committed_loaded: true,
+            trial_loaded: false,
         })
     }
 
@@ -160,6 +180,7 @@ where
         }
         let py = self.obj.py();
         let (t, step) = (self.committed.t, self.step);
+        self.trial_loaded = false;
         match self.obj.call_method1("try_step", (dt,)) {
             Err(e) if is_step_failed(py, &e) => {
                 return Err(StepError::Failed {
@@ -180,30 +201,10 @@ where
             }
             Ok(_) => {}
         }
-        let dict = match py_state(&self.obj, true) {
-            Ok(d) => d,
-            // The solver's own check of the trial, in `state(True)`: retried too.
-            Err(e) if is_step_failed(py, &e) => {
-                return Err(StepError::Failed {
-                    message: format!("StepFailed: {}", e.value(py)),
-                    t,
-                    step,
-                    dt,
-                })
-            }
-            Err(e) => return Err(self.fail(e)),
-        };
-        let mut s = self.spare.take().unwrap_or_default();
-        match s.read(&dict, &self.gravity, t + dt, step + 1) {
-            Ok(()) => {
-                self.trial = Some(s);
-                Ok(())
-            }
-            Err(f) => {
-                self.spare = Some(s);
-                Err(self.trial_fault(f, dt))
-            }
+        if self.on_demand {
+            return self.summary_of_trial(dt);
         }
+        self.read_trial(dt)
     }
 
     fn accept(&mut self) -> Result<(), StepError> {
@@ -219,6 +220,8 @@ where
         trial.t = py_time(&self.obj).map_err(|e| self.fail(e))?;
         self.step += 1;
         self.spare = Some(std::mem::replace(&mut self.committed, trial));
+        self.committed_loaded = self.trial_loaded || !self.on_demand;
+        self.trial_loaded = false;
         Ok(())
     }
 
@@ -226,16 +229,80 @@ where
         if let Some(old) = self.trial.take() {
             self.spare = Some(old);
         }
+        self.trial_loaded = false;
         if let Err(e) = self.obj.call_method0("reject") {
             let _ = self.fail(e);
         }
     }
 
     fn view(&self) -> ViewNd<'_, D> {
-        self.committed.view()
+        match self.committed_loaded {
+            true => self.committed.view(),
+            false => on_demand::summary_only(&self.committed),
+        }
     }
 
     fn trial_view(&self) -> Option<ViewNd<'_, D>> {
-        self.trial.as_ref().map(|s| s.view())
+        let trial = self.trial.as_ref()?;
+        Some(match self.trial_loaded || !self.on_demand {
+            true => trial.view(),
+            false => on_demand::summary_only(trial),
+        })
+    }
+
+    fn provide_arrays_on_demand(&mut self, on: bool) -> bool {
+        on && self.on_demand
+    }
+
+    fn load_arrays(&mut self, trial: bool) -> Result<(), StepError> {
+        match trial {
+            true => self.load_trial(),
+            false => self.load_committed(),
+        }
+    }
+}
+
+impl<const D: usize> PyStepper<'_, D>
+where
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+{
+    /// Reads the trial's state dict (`state(True)`) into the package's storage, after the
+    /// solver's `try_step(dt)`.
+    fn read_trial(&mut self, dt: f64) -> Result<(), StepError> {
+        let s = self.spare.take().unwrap_or_default();
+        self.read_trial_into(s, dt)
+    }
+
+    /// [`Self::read_trial`] into the storage `s`.
+    fn read_trial_into(&mut self, mut s: Box<StateNd<D>>, dt: f64) -> Result<(), StepError> {
+        let py = self.obj.py();
+        let (t, step) = (self.committed.t, self.step);
+        let dict = match py_state(&self.obj, true) {
+            Ok(d) => d,
+            // The solver's own check of the trial, in `state(True)`: retried too.
+            Err(e) if is_step_failed(py, &e) => {
+                self.spare = Some(s);
+                return Err(StepError::Failed {
+                    message: format!("StepFailed: {}", e.value(py)),
+                    t,
+                    step,
+                    dt,
+                });
+            }
+            Err(e) => {
+                self.spare = Some(s);
+                return Err(self.fail(e));
+            }
+        };
+        match s.read(&dict, &self.gravity, t + dt, step + 1) {
+            Ok(()) => {
+                self.trial = Some(s);
+                Ok(())
+            }
+            Err(f) => {
+                self.spare = Some(s);
+                Err(self.trial_fault(f, dt))
+            }
+        }
     }
 }

@@ -102,6 +102,13 @@ pub fn read_summary<const D: usize>(
     let summary = obj
         .downcast::<PyDict>()
         .map_err(|_| state_type_error(py, "state[\"summary\"] must be a dict or None".into()))?;
+    read_totals(summary).map(Some)
+}
+
+/// A summary dict's totals (module docs): the `"summary"` of a state dict, or what a
+/// stepper handing over on demand returns from `summary(trial)`.
+pub fn read_totals<const D: usize>(summary: &Bound<'_, PyDict>) -> Result<SummaryNd<D>, Fault> {
+    let py = summary.py();
     check_keys(summary)?;
     let kinetic = number(summary, "kinetic")?;
     let strain = number(summary, "strain")?;
@@ -141,12 +148,12 @@ pub fn read_summary<const D: usize>(
         )
         .into());
     }
-    Ok(Some(SummaryNd {
+    Ok(SummaryNd {
         finite: true,
         kinetic,
         strain,
         first_moment,
         element_bound,
         sound_unit_step,
-    }))
+    })
 }

@@ -17,6 +17,7 @@ EXAMPLE = pathlib.Path(__file__).resolve().parents[2] / "examples" / "python" / 
 
 @pytest.fixture(scope="module")
 def mpm88() -> Any:
+    sys.path.insert(0, str(EXAMPLE.parent))  # the scene module beside it
     spec = importlib.util.spec_from_file_location("taichi_mpm88", EXAMPLE)
     assert spec is not None and spec.loader is not None
     module = importlib.util.module_from_spec(spec)

@@ -78,6 +78,8 @@ where
         // is then told before every trial whether the next proposal reads it. Without such
         // a limit the stepper hears nothing more than the call above.
         let on_demand = self.limits.iter().any(|l| l.reads_element_bound());
+        // Arrays on demand (`super::on_demand`): loaded only when a call reads them.
+        self.arrays_on_demand = self.ask_arrays_on_demand(stepper);
         if on_demand {
             stepper.provide_element_bound(true);
         }
@@ -92,7 +94,12 @@ where
                 stepper.provide_nodal_stiffness(true);
             }
             // 0. The door: the committed view is checked before any limit reads it.
-            let view = stepper.view();
+            let mut view = stepper.view();
+            if self.arrays_on_demand && self.arrays_to_propose(&view, attempt) {
+                drop(view);
+                super::on_demand::load_committed(stepper, t)?;
+                view = stepper.view();
+            }
             self.check_committed(&view, attempt)?;
             // 1–2. Proposals from the committed state; the step, agreed.
             let mut proposals = self.propose(&view, t);
@@ -186,6 +193,7 @@ where
             verdicts.rejected_by = Some(bound::OTHER_RANK.to_string());
         }
         if verdicts.cause.is_none() {
+            self.load_to_accept(stepper, dt, t)?;
             let before = stepper.view();
             if let Some(after) = stepper.trial_view() {
                 for limit in self.limits.iter_mut() {

@@ -9,6 +9,12 @@ impl<const D: usize> Controller<D>
 where
     Dim<D>: Dimension,
 {
+    /// Whether the committed view's contents are checked at this step and attempt: the
+    /// first view, then the first attempt of every `VIEW_CHECK_CADENCE`th step.
+    pub(super) fn contents_due(&self, step: u64, attempt: u32) -> bool {
+        !self.first_view_checked || (attempt == 1 && step.is_multiple_of(VIEW_CHECK_CADENCE))
+    }
+
     /// Checks the committed view of attempt `attempt`: its shape always, its contents on
     /// the first view this controller reads and on the first attempt of every step whose
     /// index is a multiple of [`VIEW_CHECK_CADENCE`]. The processes of a distributed run
@@ -19,16 +25,20 @@ where
         attempt: u32,
     ) -> Result<(), ControllerError> {
         let step = view.step_index();
-        let contents =
-            !self.first_view_checked || (attempt == 1 && step.is_multiple_of(VIEW_CHECK_CADENCE));
-        let result = view.check_shape().and_then(|_| {
-            if contents {
-                view.check_contents()
-            } else {
-                Ok(())
-            }
-        });
-        if contents && result.is_ok() {
+        let contents = self.contents_due(step, attempt);
+        // A summary-only view (arrays on demand) holds nothing to check; it is loaded
+        // whenever the contents are due (`super::on_demand`).
+        let result = match view.holds_arrays() {
+            false => Ok(()),
+            true => view.check_shape().and_then(|_| {
+                if contents {
+                    view.check_contents()
+                } else {
+                    Ok(())
+                }
+            }),
+        };
+        if contents && view.holds_arrays() && result.is_ok() {
             self.first_view_checked = true;
         }
         let mut failed = [result.is_err()];
@@ -55,6 +65,9 @@ where
 /// The shape check of a trial view (its finite values are the trial check's business: a
 /// non-finite trial is rejected and retried). `Some` ends the run.
 pub(super) fn check_trial<V: StateView>(after: &V) -> Option<ControllerError> {
+    if !after.holds_arrays() {
+        return None;
+    }
     let source = after.check_shape().err()?;
     Some(ControllerError::InvalidView {
         t: after.time(),

@@ -53,6 +53,7 @@ mod decision;
 mod door;
 mod error;
 mod filter;
+mod on_demand;
 mod scaled;
 mod standard;
 mod stats;
@@ -93,6 +94,9 @@ where
     /// ([`crate::view_check`]); not part of a checkpoint (a restored controller checks its
     /// first view).
     first_view_checked: bool,
+    /// Whether the stepper of the current step hands over its arrays on demand
+    /// ([`on_demand`]); asked at every step.
+    arrays_on_demand: bool,
 }
 
 impl<const D: usize> std::fmt::Debug for Controller<D>
@@ -135,6 +139,7 @@ where
             state,
             reduce: std::rc::Rc::new(crate::reduce::SingleProcess),
             first_view_checked: false,
+            arrays_on_demand: false,
         })
     }
 
@@ -271,6 +276,7 @@ where
             state: checkpoint.state,
             reduce: std::rc::Rc::new(crate::reduce::SingleProcess),
             first_view_checked: false,
+            arrays_on_demand: false,
         })
     }
 

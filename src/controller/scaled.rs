@@ -74,6 +74,10 @@ where
         self.inner.reads_nodal_stiffness()
     }
 
+    fn reads_arrays(&self, call: crate::limit::LimitCall, state: &ViewOf<'_, D>) -> bool {
+        self.inner.reads_arrays(call, state)
+    }
+
     fn reads_element_bound(&self) -> bool {
         self.inner.reads_element_bound()
     }

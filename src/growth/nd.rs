@@ -169,6 +169,12 @@ where
         self.energies(view)
     }
 
+    /// Only where the state carries no summary: with one, the energies are the summary's
+    /// and no moduli are kept.
+    fn reads_arrays(&self, state: &ViewNd<'_, D>) -> bool {
+        state.summary.is_none()
+    }
+
     fn trial_key(_before: &ViewNd<'_, D>, after: &ViewNd<'_, D>, _dt: f64) -> [u64; 2] {
         [after.t.to_bits(), after.step]
     }

@@ -39,4 +39,8 @@ impl<const D: usize> SignalSpeeds for ViewNd<'_, D> {
             _ => pass_unit_step(self),
         }
     }
+
+    fn supplies_sound_unit_step(&self) -> bool {
+        matches!(self.summary.and_then(|s| s.sound_unit_step), Some(u) if u.is_finite())
+    }
 }

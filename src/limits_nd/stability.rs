@@ -84,7 +84,9 @@
 mod full_map_gain;
 mod guard;
 mod guard_scan;
+mod on_summary;
 mod policy;
+pub use on_summary::SUMMARY_CHECK_EVERY;
 
 use super::bound_tracking::{view_supplies_bound, BoundTracking};
 use super::stability_config::StabilityNdConfig;
@@ -144,6 +146,8 @@ pub struct StabilityNd<const D: usize> {
     /// Lanczos products of the last refresh when it was warm-started (a cold start's are
     /// not what tracking costs).
     last_products: Option<u64>,
+    /// What proposals on summary-only views carry from the last check ([`on_summary`]).
+    on_summary: on_summary::OnSummary,
     /// The run's reductions ([`StepLimit::set_reduce`]).
     reduce: Rc<dyn Reduce>,
     /// Threads for the layout guard's pass ([`StepLimit::set_threads`]).
@@ -175,6 +179,7 @@ impl<const D: usize> StabilityNd<D> {
             applications: 0,
             tracking: BoundTracking::default(),
             last_products: None,
+            on_summary: on_summary::OnSummary::default(),
             reduce: Rc::new(SingleProcess),
             pool: None,
         }
@@ -336,6 +341,7 @@ impl<const D: usize> StabilityNd<D> {
         let (neg_growth, stale) = Self::agreement(&*self.reduce, state)
             .min_and_any(-growth.unwrap_or(1.0), growth.is_none() || moved_is_stale);
         let agreed = (!stale).then_some(-neg_growth);
+        self.on_summary.checked(agreed.unwrap_or(1.0));
         let mut looked = None;
         if let (Some(growth), Some(cached)) = (agreed, self.lambda) {
             if !(calibrated && (supplied || moved)) {
@@ -432,6 +438,8 @@ where
                 self.tracking.bound_proposals += 1;
                 (bound, false, true)
             }
+            // A stepper handing over its arrays on demand ([`on_summary`]).
+            None if !state.holds_arrays() => (self.summary_lambda(state)?, false, false),
             None => {
                 let (lambda, refreshed) = self.tracked_lambda(state)?;
                 (lambda, refreshed, false)
@@ -448,6 +456,12 @@ where
         if factor.is_finite() && factor > 0.0 {
             self.safety *= factor;
         }
+    }
+
+    /// Only a proposal reads the arrays, and on a summary-only view only when it cannot be
+    /// made from the summary ([`on_summary`]).
+    fn reads_arrays(&self, call: crate::limit::LimitCall, state: &ViewNd<'_, D>) -> bool {
+        call == crate::limit::LimitCall::Propose && !self.serves_on_summary(state)
     }
 
     fn set_reduce(&mut self, reduce: Rc<dyn Reduce>) {

@@ -77,7 +77,9 @@ mod passes;
 use super::temporal_sweep::{stamp, History, Pairing, LEFT_OUT, NONE};
 use crate::dimension::{Dim, Dimension};
 use crate::limit::metric;
-use crate::limit::{Judgement, LimitError, Metrics, Proposal, RejectCause, StepLimit, Verdict};
+use crate::limit::{
+    Judgement, LimitCall, LimitError, Metrics, Proposal, RejectCause, StepLimit, Verdict,
+};
 use crate::nd::ViewNd;
 use crate::temporal::deferral::{self, DeferredTrial};
 use crate::temporal::{TemporalErrorConfig, TEMPORAL_ERROR};
@@ -314,6 +316,22 @@ where
             }
         };
         Ok(Judgement { verdict, metrics })
+    }
+
+    /// A proposal reads nothing; a judgement reads both states unless the schedule defers
+    /// the check ([`crate::temporal::deferral`]; the particle ids of a split run are not
+    /// compared here: a stepper hands over on demand in single-process runs only); an
+    /// acceptance unless its trial's check was deferred.
+    fn reads_arrays(&self, call: LimitCall, _state: &ViewNd<'_, D>) -> bool {
+        match call {
+            LimitCall::Propose => false,
+            LimitCall::Judge { dt } => self
+                .history
+                .as_ref()
+                .and_then(|h| h.defer.predict(h.dt, dt, &self.config))
+                .is_none(),
+            LimitCall::Accepted { .. } => self.deferred.is_none(),
+        }
     }
 
     fn accepted(&mut self, before: &ViewNd<'_, D>, after: &ViewNd<'_, D>, dt: f64) {

@@ -156,6 +156,46 @@ impl<const D: usize> SummaryNd<D> {
     }
 }
 
+impl<'a, const D: usize> ViewNd<'a, D> {
+    /// A view that holds the state's [`SummaryNd`] and no particle or nodal arrays (all
+    /// empty): what a stepper handing over its arrays on demand
+    /// ([`crate::Stepper::provide_arrays_on_demand`]) shows until the controller asks for
+    /// them ([`crate::Stepper::load_arrays`]). The controller passes such a view only to
+    /// limits that declare they read none of its arrays ([`crate::StepLimit::reads_arrays`]).
+    pub fn summary_only(t: f64, step: u64, grid: &'a GridNd<D>, summary: SummaryNd<D>) -> Self {
+        Self {
+            t,
+            step,
+            grid,
+            x: &[],
+            v: &[],
+            sigma: &[],
+            f: &[],
+            volume0: &[],
+            mass: &[],
+            lame_lambda: &[],
+            lame_mu: &[],
+            density: &[],
+            weights: ViewWeightsNd::formed(grid, super::ShapeNd::Linear, &[], &[]),
+            node_mass: &[],
+            node_velocity: &[],
+            node_acceleration: &[],
+            node_active: &[],
+            summary: Some(summary),
+            split: None,
+        }
+    }
+
+    /// Whether the view holds its arrays: `false` only for a [`Self::summary_only`] view
+    /// (a summary, no particle and no nodal arrays, on a grid with nodes).
+    pub fn holds_arrays(&self) -> bool {
+        !(self.summary.is_some()
+            && self.x.is_empty()
+            && self.node_mass.is_empty()
+            && self.grid.n_nodes() > 0)
+    }
+}
+
 impl<const D: usize> ViewNd<'_, D> {
     /// Number of particles.
     pub fn n_particles(&self) -> usize {

@@ -64,6 +64,23 @@ where
         records: &mut [LimitRecord],
         v: &mut Verdicts,
     ) {
+        if let Err((trial, e)) = self.load_to_judge(stepper, dt) {
+            match (trial, &e) {
+                (
+                    true,
+                    StepError::NonFinite { .. }
+                    | StepError::OutOfDomain { .. }
+                    | StepError::Inverted { .. }
+                    | StepError::Failed { .. },
+                ) => {
+                    v.cause = Some(RejectCause::NonFinite);
+                    v.rejected_by = Some("stepper".to_string());
+                    v.message = Some(e.to_string());
+                }
+                _ => v.fatal = Some(ControllerError::Stepper { t, source: e }),
+            }
+            return;
+        }
         let before = stepper.view();
         let Some(after) = stepper.trial_view() else {
             v.fatal = Some(ControllerError::Stepper {
