@@ -322,10 +322,11 @@ fn steps_on_the_light_node_layout_stay_below_the_frozen_particle_limit() {
 }
 
 /// Per proposal of an APIC stability limit driven along a jittered B-spline layout: the
-/// running counts of Lanczos refreshes and of calibrated proposals. From step
+/// running counts of Lanczos refreshes and of calibrated proposals, and the transfer gain
+/// `1 + p` the proposal carries. From step
 /// `fluid_from` on, particle 0 reports no shear stiffness (`μ_t = 0`); `summary`: the
 /// stepper supplies the element bound (else the generic path).
-fn apic_counts(fluid_from: usize, summary: bool, steps: usize) -> Vec<(f64, f64)> {
+fn apic_counts(fluid_from: usize, summary: bool, steps: usize) -> Vec<(f64, f64, f64)> {
     use mpm_dt::limits_nd::TransferNd;
     use mpm_dt::StepLimit;
     let config = StabilityNdConfig {
@@ -353,7 +354,7 @@ fn apic_counts(fluid_from: usize, summary: bool, steps: usize) -> Vec<(f64, f64)
         let of = |key: &str, last: f64| proposal.metrics.get(key).copied().unwrap_or(last);
         refreshes = of("refreshes", refreshes);
         calibrated = of("calibrated_proposals", calibrated);
-        counts.push((refreshes, calibrated));
+        counts.push((refreshes, calibrated, of("transfer_gain", f64::NAN)));
         s.try_step(0.5 * proposal.dt)
             .and_then(|_| s.accept())
             .expect("a stable step");
@@ -393,4 +394,31 @@ fn under_apic_the_calibrated_bound_serves_solids_only() {
         );
         assert!(last.0 > counts[19].0);
     }
+}
+
+/// Under APIC the transfer's gain `1 + p` lifts a solid's step and not a fluid's: from the
+/// first refresh that meets a particle without shear stiffness on, the proposals carry
+/// gain 1 (eq 56 itself; `limits_nd::bound_tracking`, "Under APIC", measured on the mpm88
+/// fluid, which the gain took above its failure step).
+#[test]
+fn under_apic_the_transfer_gain_lifts_solids_only() {
+    let solid = apic_counts(usize::MAX, true, 30);
+    assert!(
+        solid.iter().all(|c| c.2 > 1.01),
+        "a solid's gains: {solid:?}"
+    );
+    let fluid = apic_counts(0, true, 30);
+    assert!(
+        fluid.iter().all(|c| c.2.to_bits() == 1f64.to_bits()),
+        "a fluid's gains: {fluid:?}"
+    );
+    let switch = apic_counts(20, true, 60);
+    let at = (20..switch.len())
+        .find(|&k| switch[k].0 > switch[k - 1].0)
+        .unwrap_or_else(|| panic!("no refresh after the switch: {switch:?}"));
+    assert!(switch[..20].iter().all(|c| c.2 > 1.01));
+    assert!(
+        switch[at..].iter().all(|c| c.2.to_bits() == 1f64.to_bits()),
+        "{switch:?}"
+    );
 }

@@ -67,6 +67,17 @@
 //! mid-run the calibration's reference and scale are dropped, so that the raw-bound
 //! policy starts clean.
 //!
+//! **Nor the transfer's gain.** From the same refresh on, a fluid's proposals carry no APIC
+//! gain: the step is eq 56's own, `safety·√(2/λ)` ([`crate::limits_nd::transfer`]). The gain
+//! `1 + p` is the transfer's share of the frozen layout's top mode; a fluid's layout is
+//! not frozen from one step to the next, and on the mpm88 fluid the gain took the
+//! controller's mean step to 1.06–1.14× the smallest failing fixed step (taichi and
+//! Rust layouts) and its runs into 22 growth detections, ended with `GrowthPersists` at
+//! t ≈ 0.26–0.30 on the 200-cell grid and on taichi's layout. Without it the fluid runs to
+//! the end on both grids with no rejection (mean step 0.79 of the failure step on the
+//! 128-cell grid, `docs/performance.md`). An interpretation measured on one scene on two
+//! layouts and two grids; the price is speed (the fluid's mean step falls by about 28 %).
+//!
 //! **Solids counted as fluids.** The test is on the tangent moduli the view reports: a
 //! solid whose tangent shear modulus reaches zero somewhere — `tangent::fixed_corotated`
 //! clamps a negative fitted `μ_t` to 0, a neo-Hookean `μ_t = (μ − λ ln J)/J` vanishes at

@@ -216,6 +216,8 @@ impl<const D: usize> StabilityNd<D> {
         diag: Option<(f64, usize)>,
         bound: Option<f64>,
     ) -> Result<f64, LimitError> {
+        // Before the gain: under APIC a fluid steps on eq 56 (`policy::note_fluid`).
+        self.note_fluid(view);
         let n = view.n_nodes() * D;
         let space = NodalSpace::new(view, &*self.reduce);
         // Component `c` of the local vectors is component `global(c)` of the whole grid's:
@@ -270,9 +272,10 @@ impl<const D: usize> StabilityNd<D> {
         let (gain, extra_products) = match self.config.transfer {
             TransferNd::Flip if self.config.full_map => self.full_map_gain(view, &r),
             TransferNd::Flip => (1.0, 0),
+            // A fluid under APIC steps on eq 56 itself (`policy`, "fluids").
+            TransferNd::Apic { .. } if self.tracking.fluid_seen => (1.0, 0),
             TransferNd::Apic { inertia } => (apic_gain(view, &space, &r.vector, inertia), 0),
         };
-        self.note_fluid(view);
         self.gain = gain;
         self.ritz = r.vector;
         self.store_references(view);

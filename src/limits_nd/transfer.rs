@@ -29,6 +29,11 @@
 //! the tracked top mode of `M⁻¹K` (in the mass inner product), clamped to `[0, 1]` — an
 //! interpretation, exact on uniform periodic layouts, measured against the blow-up step of
 //! an MLS-MPM scene in `examples/mls_mpm`.
+//!
+//! The stability limit applies the gain to solids only: once a refresh meets a particle
+//! without shear stiffness (a fluid) it steps on eq 56 itself for the rest of the run
+//! (`crate::limits_nd::bound_tracking`, "Under APIC": the mpm88 fluid, whose layout is
+//! not frozen from step to step, grew at the gained step).
 
 use super::stiffness::{inverse_sqrt_mass, NodalSpace};
 use crate::nd::{Tensor, Vector, ViewNd};

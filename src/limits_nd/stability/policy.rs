@@ -56,7 +56,8 @@ impl<const D: usize> StabilityNd<D> {
 
     /// Records whether a refreshed view holds a particle without shear stiffness
     /// (`μ_t ≤ 0`, or not a number), on any process: under APIC that ends the calibrated
-    /// bound for the run ([`super::super::bound_tracking`], "Under APIC"). One pass over
+    /// bound and the transfer's gain for the run ([`super::super::bound_tracking`], "Under
+    /// APIC"). One pass over
     /// `μ_t` at a refresh, on APIC runs only, until one is met.
     pub(super) fn note_fluid(&mut self, view: &ViewNd<'_, D>) {
         if self.config.transfer == TransferNd::Flip || self.tracking.fluid_seen {
