@@ -52,9 +52,10 @@ impl Model {
     /// E/J`, which `(E, 0)` under-reports by `1/J` in compression (`J` ≥ 0.93 on most of
     /// mpm88's fluid, so the sound-speed cap reads a speed up to a few per cent low there)
     /// and over-reports in tension. Kept because the stability limit binds on this scene
-    /// and the sound-speed cap does not (3 of 1 911 steps); reporting `E max(1, 1/J)`
-    /// instead stopped the 128-cell fluid with `GrowthPersists`, which says more about how
-    /// near its failure step this scene runs than about the moduli.
+    /// and the sound-speed cap did not (3 of 1 911 steps, when the limit still applied
+    /// the APIC gain to fluids); reporting `E max(1, 1/J)` then stopped the 128-cell fluid
+    /// with `GrowthPersists`, which said more about how near its failure step the gained
+    /// step ran than about the moduli.
     pub fn tangents(&self, f: &[Matrix2<f64>], lambda_t: &mut [f64], mu_t: &mut [f64]) {
         let (lambda, mu) = self.lame();
         match self {
