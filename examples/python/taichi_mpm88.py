@@ -120,7 +120,11 @@ def handover(n: int, jelly: bool, reps: int = 20) -> None:
     s = sim.state(True)
     mpm_dt.read_state(s)
     times = {}
-    for name, f in (("substep", lambda: (sim.substep(sim.states[0], sim.states[1], MPM88_DT), ti.sync())),
+
+    def substep() -> None:
+        sim.substep(sim.states[0], sim.states[1], MPM88_DT)
+        ti.sync()
+    for name, f in (("substep", substep),
                     ("state(True) export", lambda: sim.state(True)),
                     ("mpm_dt read (arrays, weights, nodal fields)", lambda: mpm_dt.read_state(s))):
         start = time.perf_counter()

@@ -101,3 +101,33 @@ def test_the_kernel_s_tangent_moduli_are_the_library_s(mpm88: Any) -> None:
     theirs = mpm_dt.critical_dt(dict(s, lame=rest, material="fixed_corotated"))
     for key in ("lambda_max", "c_p"):
         assert ours[key] == pytest.approx(theirs[key], rel=1e-12), key
+
+
+def test_on_demand_hands_over_the_export_s_totals_and_takes_the_eager_steps(mpm88: Any) -> None:
+    """The on-demand stepper's `summary(True)` (the `summarize` kernel) is the summary the
+    export kernel hands over with the arrays, and a run handing over on demand takes the
+    eager run's steps (to a few parts in a million: between its layout checks the
+    stability limit carries the last check's moduli factor) reading the arrays on a
+    fraction of the states."""
+    sim = mpm88.Mpm88OnDemand(jelly=True)
+    mpm_dt.Controller(dim=2, config={}, gravity=(0.0, -9.8)).run_until(sim, 0.005)
+    sim.try_step(3e-4)
+    alone = dict(sim.summary(True))
+    alone["first_moment"] = np.array(alone["first_moment"])
+    exported = sim.state(True)["summary"]
+    for key, value in exported.items():
+        assert alone[key] == pytest.approx(value, rel=1e-12), key
+    sim.reject()
+    runs = []
+    for kind in (mpm88.Mpm88, mpm88.Mpm88OnDemand):
+        s = kind(jelly=True)
+        calls = [0]
+        original = s.state
+        s.state = lambda trial, f=original, c=calls: (c.__setitem__(0, c[0] + 1), f(trial))[1]
+        decisions: list[dict[str, Any]] = []
+        mpm_dt.Controller(dim=2, config={}, gravity=(0.0, -9.8)).run_until(s, 0.03, decisions.append)
+        runs.append(([d["dt"] for d in decisions], calls[0]))
+    (eager, n_eager), (lazy, n_lazy) = runs
+    assert len(lazy) == len(eager) > 50
+    assert lazy == pytest.approx(eager, rel=1e-4)
+    assert 2 * n_lazy < n_eager, (n_lazy, n_eager)
