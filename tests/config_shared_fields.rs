@@ -5,6 +5,13 @@
 //! two runs (each attempt's outcome, step, binding bound, rejection cause and measured
 //! temporal error) and how the runs ended must differ, or the run must end with the error
 //! the field names.
+//!
+//! The same sweep in the other dimensions: `tests/config_shared_fields_3d.rs` (3D, with
+//! the growth monitor's settings) and `tests/config_shared_fields_1d.rs` (1D, on bases
+//! where the 1D limits consult each field); the 1D-only fields change a 1D run in
+//! `tests/config_one_d_fields.rs`, the `stability_nd` settings a 3D run in
+//! `tests/config_stability_nd_3d.rs`. Fields that do not apply in a dimension are refused
+//! there: `tests/config_dimensions.rs`, and `tests/controller_standard.rs` for `gravity`.
 
 use mpm_dt::controller::{Controller, ControllerConfig, ControllerError, Decision};
 
@@ -87,14 +94,14 @@ macro_rules! unstable {
 }
 const UNSTABLE: &str = unstable!();
 
-/// Not covered: `max_shrink_repeated` acts only from the second consecutive rejection of one
-/// step, and none of these bases rejects a step twice in a row (the temporal retry after
-/// `dt_initial` is accepted, growth clears its history on detection); a base that does was
-/// not found in the time given, so it is left out rather than asserted vacuously.
+/// `max_shrink_repeated` acts only from the second consecutive rejection of one step: the
+/// temporal retry after `dt_initial` is accepted, but on the growing base with
+/// `reject_shrink` 0.95 the retry after a step the stepper fails (a non-finite state) is
+/// rejected again, and the next retry is clamped to it.
 ///
 /// `(changed, base)`: the bodies of two configs `{…}`, the changed one setting the field
 /// against a base where it is consulted.
-const SHARED_CHANGES: [(&str, &str); 23] = [
+const SHARED_CHANGES: [(&str, &str); 24] = [
     (r#""dt_initial": 0.01"#, ""),
     (r#""dt_max": 0.02"#, ""),
     (r#""temporal": {"rtol": 1e-3}, "safety": 0.5"#, ACCURATE),
@@ -113,6 +120,13 @@ const SHARED_CHANGES: [(&str, &str); 23] = [
     (
         concat!(rejecting!(), r#", "max_shrink_first": 0.15"#),
         REJECTING,
+    ),
+    (
+        concat!(
+            unstable!(),
+            r#", "reject_shrink": 0.95, "max_shrink_repeated": 0.5"#
+        ),
+        concat!(unstable!(), r#", "reject_shrink": 0.95"#),
     ),
     (concat!(unstable!(), r#", "reject_shrink": 0.3"#), UNSTABLE),
     (r#""temporal": {"rtol": 1e-3}, "filter": "i""#, ACCURATE),
@@ -195,6 +209,18 @@ fn the_ending_fields_end_the_run_with_their_error() {
         .end,
         "GrowthPersists(1)"
     );
+    // Twice in a row, so that the second retry is clamped to `max_shrink_repeated`.
+    let twice = run(
+        &with(&format!(r#"{UNSTABLE}, "reject_shrink": 0.95"#)),
+        [0.0; 2],
+        T_END,
+    );
+    let consecutive = twice
+        .log
+        .windows(2)
+        .filter(|w| w[0].starts_with("Rejected") && w[1].starts_with("Rejected"))
+        .count();
+    assert!(consecutive > 0, "no step rejected twice in a row");
 }
 
 /// The body force of `gravity`: the growth monitor counts its potential energy, so a

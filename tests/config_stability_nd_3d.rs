@@ -1,0 +1,183 @@
+//! Capability: every 2D/3D setting of the stability limit (`stability_nd.*`) changes what a
+//! controlled 3D run does — the 3D sweep of `every_stability_nd_setting_changes_a_2d_run`
+//! in `tests/config_dimensions.rs` (same list, same bases, same log: every decision's
+//! outcome, step and the stability limit's numbers), on the small jittered block moving
+//! across a periodic 4×4×4 grid of `tests/config_shared_fields_3d.rs`. As there, the
+//! solver hands over no element bound and no sound-speed step (the generic path), except
+//! for the cost model, which weighs Lanczos against a bound the stepper supplies.
+
+use mpm_dt::controller::standard_limits;
+use mpm_dt::controller::{Controller, ControllerConfig, ControllerError, Decision};
+use mpm_dt::limits_nd::element_bound::element_bound;
+use mpm_dt::limits_nd::STABILITY;
+use mpm_dt::nd::{GridNd, MaterialNd, ParticlesNd, ShapeNd, SolverNd, SummaryNd, Vector};
+use mpm_dt::reduce::SingleProcess;
+use mpm_dt::{Boundary, StepError, Stepper, ViewNd};
+
+#[path = "common/jitter.rs"]
+mod jitter;
+
+/// The 3D block of `tests/config_shared_fields_3d.rs` (2×2×2 particles a cell, periodic
+/// 4×4×4 grid, sheared in each direction), without body force.
+fn block() -> SolverNd<3> {
+    let grid = GridNd::<3>::new([Boundary::Periodic; 3], [4; 3], [1.0; 3]);
+    let material = MaterialNd::NeoHookean {
+        youngs_modulus: 1.0,
+        poisson_ratio: 0.3,
+    };
+    let mut particles = ParticlesNd::uniform(&grid, [2; 3], 1.0, material);
+    let x0 = particles.x.clone();
+    jitter::jitter(&mut particles, 0.3, 7);
+    let wave = |s: f64| 0.1 * (2.0 * std::f64::consts::PI * s).sin();
+    for (v, x) in particles.v.iter_mut().zip(&x0) {
+        v[0] = 0.2 + wave(x[1]);
+        v[1] = wave(x[2]);
+        v[2] = wave(x[0]);
+    }
+    SolverNd::new(grid, ShapeNd::Gimp, particles, Vector::<3>::zeros()).unwrap()
+}
+
+/// The block handing over the element bound of its views (the library's function) when
+/// `on`, and otherwise no bound and no sound-speed step (`tests/common/opt_in.rs` in 3D).
+struct OptIn {
+    solver: SolverNd<3>,
+    on: bool,
+}
+
+impl OptIn {
+    fn with_bound<'a>(&self, view: ViewNd<'a, 3>) -> ViewNd<'a, 3> {
+        let bound = self.on.then(|| element_bound(&view, &SingleProcess).lambda);
+        ViewNd {
+            summary: view.summary.map(|s| SummaryNd {
+                element_bound: bound,
+                sound_unit_step: None,
+                ..s
+            }),
+            ..view
+        }
+    }
+}
+
+impl Stepper<3> for OptIn {
+    fn time(&self) -> f64 {
+        self.solver.time()
+    }
+    fn step_count(&self) -> u64 {
+        self.solver.step_count()
+    }
+    fn try_step(&mut self, dt: f64) -> Result<(), StepError> {
+        self.solver.try_step(dt)
+    }
+    fn accept(&mut self) -> Result<(), StepError> {
+        self.solver.accept()
+    }
+    fn reject(&mut self) {
+        self.solver.reject()
+    }
+    fn view(&self) -> ViewNd<'_, 3> {
+        self.with_bound(self.solver.view())
+    }
+    fn trial_view(&self) -> Option<ViewNd<'_, 3>> {
+        self.solver.trial_view().map(|v| self.with_bound(v))
+    }
+    fn provide_summary(&mut self, on: bool) -> bool {
+        self.solver.provide_summary(on)
+    }
+}
+
+/// Every decision's outcome, step and the stability limit's numbers (λmax, refreshes,
+/// Lanczos products, bound proposals) of a controlled run of the block to `t_end`.
+fn run(c: &ControllerConfig, opt_in: bool, t_end: f64) -> Vec<String> {
+    let limits = standard_limits::<3>(c, Vector::<3>::zeros());
+    let mut controller = Controller::<3>::new(c.clone(), limits).unwrap();
+    let mut block = OptIn {
+        solver: block(),
+        on: opt_in,
+    };
+    let mut log = Vec::new();
+    let mut record = |d: &Decision| {
+        let stability: Vec<String> = d
+            .limits
+            .iter()
+            .filter(|l| l.name == STABILITY)
+            .flat_map(|l| l.metrics.iter().map(|(k, v)| format!("{k}={v:e}")))
+            .collect();
+        log.push(format!(
+            "{:?} {:e} {}",
+            d.outcome,
+            d.dt,
+            stability.join(",")
+        ));
+    };
+    match controller.run_until(&mut block, t_end, &mut record) {
+        Ok(_) | Err(ControllerError::GrowthPersists { .. }) => {}
+        Err(e) => panic!("run failed: {e}"),
+    }
+    log
+}
+
+/// `(changed, base)`: `stability_nd` objects, the list of `tests/config_dimensions.rs`
+/// (whose docs say where each is consulted) but for two entries. `refresh_mass` is set
+/// with the calibrated bound off (`bound_drift` −1), as the 2D list sets `refresh_cells`:
+/// against the default it did not change this block's steps to `T_END`. The cost model is
+/// set to 100 products instead of 0: 0 (the model off) left this block's run unchanged
+/// (its bound is about 4.9 times λmax), a dear product changes it.
+const STABILITY_CHANGES: [(&str, &str); 15] = [
+    (
+        r#"{"refresh_cells": 0.05, "bound_drift": -1.0}"#,
+        r#"{"bound_drift": -1.0}"#,
+    ),
+    (
+        r#"{"refresh_mass": 1e-6, "bound_drift": -1.0}"#,
+        r#"{"bound_drift": -1.0}"#,
+    ),
+    (
+        r#"{"refresh_modulus": 1e-4, "bound_drift": -1.0}"#,
+        r#"{"bound_drift": -1.0}"#,
+    ),
+    (
+        r#"{"refresh_mass": 1e-6, "refresh_diagonal": 1e-6, "bound_drift": -1.0}"#,
+        r#"{"refresh_mass": 1e-6, "bound_drift": -1.0}"#,
+    ),
+    (r#"{"max_age": 1}"#, "{}"),
+    (r#"{"tol": 0.2}"#, "{}"),
+    (r#"{"max_iter": 2}"#, "{}"),
+    (r#"{"margin": 1.5}"#, "{}"),
+    (r#"{"transfer": {"apic": {"inertia": 0.25}}}"#, "{}"),
+    (
+        r#"{"bound_slack": 10.0, "bound_drift": -1.0}"#,
+        r#"{"bound_drift": -1.0}"#,
+    ),
+    (
+        r#"{"bound_slack": 10.0, "bound_age": 1, "bound_drift": -1.0}"#,
+        r#"{"bound_slack": 10.0, "bound_drift": -1.0}"#,
+    ),
+    (
+        r#"{"product_cost": 100.0, "bound_drift": -1.0}"#,
+        r#"{"bound_drift": -1.0}"#,
+    ),
+    (r#"{"bound_drift": 0.001}"#, "{}"),
+    (r#"{"bound_age": 2}"#, "{}"),
+    (r#"{"full_map": true}"#, "{}"),
+];
+
+/// Eight time units: about as many steps as the 2D test's two on its finer grid.
+const T_END: f64 = 8.0;
+
+#[test]
+fn every_stability_nd_setting_changes_a_3d_run() {
+    let nd = |fields: &str| {
+        let json = format!(r#"{{"stability_nd": {fields}}}"#);
+        ControllerConfig::from_json(&json).unwrap_or_else(|e| panic!("{json}: {e}"))
+    };
+    let mut unchanged = Vec::new();
+    for (changed, base) in STABILITY_CHANGES {
+        let opt_in = changed.contains("product_cost");
+        let reference = run(&nd(base), opt_in, T_END);
+        assert!(reference.len() > 20, "too short a run: {}", reference.len());
+        if run(&nd(changed), opt_in, T_END) == reference {
+            unchanged.push(format!("{changed} against {base}"));
+        }
+    }
+    assert!(unchanged.is_empty(), "changed nothing: {unchanged:#?}");
+}
