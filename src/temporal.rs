@@ -1,13 +1,20 @@
-//! What the temporal-error limits of every dimension share (eqs 20–30): their settings
-//! ([`TemporalErrorConfig`]), their name in logs, the field scales of their weights
-//! ([`scales`]) and the deferral of checks while the error is small ([`deferral`]). The limits themselves: the 1D
-//! [`crate::controller::TemporalError`] and the 2D/3D [`crate::limits_nd::TemporalErrorNd`].
+//! The temporal-error limit of every dimension (eqs 20–30): the limit itself,
+//! [`TemporalError<D>`] ([`limit`], the shared control flow, with the dimension's estimator
+//! behind [`TemporalEstimator`]), its settings ([`TemporalErrorConfig`]), its name in logs,
+//! the field scales of its weights ([`scales`]) and the deferral of checks while the error is
+//! small ([`deferral`]). The estimators: the 1D [`RateKernels`]
+//! ([`crate::controller::TemporalError`] is `TemporalError<1>`) and the 2D/3D
+//! [`RateSweeps<D>`] ([`crate::limits_nd::TemporalErrorNd<D>`] is `TemporalError<D>`).
 
 mod config;
 pub mod deferral;
+pub mod limit;
 pub mod scales;
 
+pub use crate::controller::temporal_error::RateKernels;
+pub use crate::limits_nd::temporal_error::RateSweeps;
 pub use config::TemporalErrorConfig;
+pub use limit::{Estimate, TemporalDim, TemporalError, TemporalEstimator};
 
 /// The name of the temporal-error limit in logs and statistics (every dimension).
 pub const TEMPORAL_ERROR: &str = "temporal_error";

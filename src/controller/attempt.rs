@@ -94,12 +94,7 @@ where
                 stepper.provide_nodal_stiffness(true);
             }
             // 0. The door: the committed view is checked before any limit reads it.
-            let mut view = stepper.view();
-            if self.arrays_on_demand && self.arrays_to_propose(&view, attempt) {
-                drop(view);
-                super::on_demand::load_committed(stepper, t)?;
-                view = stepper.view();
-            }
+            let view = self.committed_view(stepper, attempt, t)?;
             self.check_committed(&view, attempt)?;
             // 1–2. Proposals from the committed state; the step, agreed.
             let mut proposals = self.propose(&view, t);

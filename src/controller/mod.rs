@@ -57,7 +57,7 @@ mod on_demand;
 mod scaled;
 mod standard;
 mod stats;
-mod temporal_error;
+pub(crate) mod temporal_error;
 mod temporal_kernels;
 
 pub use crate::growth::{

@@ -55,6 +55,20 @@ impl<const D: usize> Controller<D>
 where
     Dim<D>: Dimension,
 {
+    /// The committed view for the proposals of attempt `attempt`, its arrays loaded where
+    /// they are read ([`Self::arrays_to_propose`]).
+    pub(super) fn committed_view<'s>(
+        &self,
+        stepper: &'s mut dyn Stepper<D>,
+        attempt: u32,
+        t: f64,
+    ) -> Result<ViewOf<'s, D>, ControllerError> {
+        if self.arrays_on_demand && self.arrays_to_propose(&stepper.view(), attempt) {
+            load_committed(stepper, t)?;
+        }
+        Ok(stepper.view())
+    }
+
     /// Loads both states' arrays before the limits hear of an accepted trial of `dt`, where
     /// one of them reads them; a failure ends the run.
     pub(super) fn load_to_accept(

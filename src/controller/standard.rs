@@ -11,7 +11,7 @@
 //! |---|---|---|
 //! | sound speed | [`crate::sound_speed::SoundSpeed`] | the same |
 //! | stability | [`crate::stability::Stability`] | [`crate::limits_nd::StabilityNd`] |
-//! | temporal error | [`super::TemporalError`] | [`crate::limits_nd::TemporalErrorNd`] |
+//! | temporal error | [`crate::temporal::TemporalError<1>`] | [`crate::temporal::TemporalError<D>`] |
 //! | growth | [`crate::growth::Growth<1>`] | [`crate::growth::Growth<D>`] (with `config.gravity`) |
 //!
 //! The dimension is the controller's type parameter: `Controller::<2>::standard(config)`.

@@ -1,4 +1,9 @@
-//! The temporal local error of the USL step (eqs 20–30) as a limit.
+//! The temporal local error of the USL step (eqs 20–30) in 1D: the estimator
+//! [`RateKernels`] of [`crate::temporal::TemporalError<1>`] ([`TemporalError`], the older
+//! name, kept). What every dimension shares — the deferral, the judged-trial cache, the
+//! metrics and verdict, the checkpoint state — is in [`crate::temporal::limit`]; the 1D
+//! estimate, its two passes of SIMD kernels ([`super::temporal_kernels`]) and its history of
+//! rates are here.
 //!
 //! Eqs 20, 23 and 28 split each local error into a spatial part and the forward-Euler
 //! temporal part
@@ -39,7 +44,7 @@
 //! weight is never zero at a zero crossing of one particle. `dsm ≤ 1` accepts; the
 //! controller's filter turns `dsm` into the next step.
 //!
-//! **Deferred checks** ([`super::deferral`]): while `dsm` stays far below the tolerance
+//! **Deferred checks** ([`crate::temporal::deferral`]): while `dsm` stays far below the tolerance
 //! (≤ 0.1) the checks of the next trials are deferred (1, 2, 4, up to 8 trials), and the
 //! next check's second derivative spans the deferred steps
 //! (`span = (dt + dt₋)/2 + gap`). `max_deferred: 0` checks every trial.
@@ -60,11 +65,12 @@
 //!   `rtol` is the knob for long runs.
 
 use super::config::ConfigError;
-use super::decision::metric;
 use super::temporal_kernels::{dispatch_rates, dispatch_sums, Fields, Terms};
-use crate::limit::{Judgement, LimitError, Metrics, Proposal, RejectCause, StepLimit, Verdict};
+use crate::dimension::Dim;
+use crate::limit::LimitError;
 use crate::stepper::View;
-use crate::temporal::deferral::{self, Deferral, DeferredTrial, Scheduled};
+use crate::temporal::deferral::{Deferral, Scheduled};
+use crate::temporal::limit::{Estimate, Shared, TemporalDim, TemporalEstimator};
 use crate::temporal::scales::weight_scales;
 use crate::temporal::TemporalErrorConfig;
 pub use crate::temporal::TEMPORAL_ERROR;
@@ -72,15 +78,15 @@ use crate::weights::WeightKind;
 use serde::{Deserialize, Serialize};
 
 /// Rates of the last checked, accepted step, kept for the next estimate.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-struct History {
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct History {
     dt: f64,
     accel: Vec<f64>,
     stress_rate: Vec<f64>,
     v_scale: f64,
     sigma_scale: f64,
     /// The deferral schedule after this step, and the time deferred since
-    /// ([`super::deferral`]).
+    /// ([`crate::temporal::deferral`]).
     #[serde(default)]
     defer: Deferral,
 }
@@ -89,71 +95,50 @@ impl Scheduled for History {
     fn schedule(&mut self) -> &mut Deferral {
         &mut self.defer
     }
-}
 
-impl History {
-    /// An empty history to be filled by [`TemporalError::estimate`].
-    fn empty() -> Self {
-        Self {
-            dt: 0.0,
-            accel: Vec::new(),
-            stress_rate: Vec::new(),
-            v_scale: 0.0,
-            sigma_scale: 0.0,
-            defer: Deferral::default(),
-        }
+    fn deferral(&self) -> Deferral {
+        self.defer
+    }
+
+    fn step(&self) -> f64 {
+        self.dt
     }
 }
 
-/// The temporal error limit: proposes nothing itself (the controller's filter does, from
-/// the `dsm` this limit reports), judges each trial by `dsm ≤ 1`.
+/// The 1D temporal-error limit, `TemporalError<1>`: the older name, kept.
 ///
 /// **Buffers.** The rates of a judged trial become the history when the trial is accepted,
 /// and the history they replace is kept as `spare` and refilled by the next judgement, so
 /// in a run the two per-particle rate arrays are allocated once, not on every step (at 10⁵
 /// particles the freed arrays went back to the OS and were faulted in again each step).
-#[derive(Clone, Debug)]
-pub struct TemporalError {
-    config: TemporalErrorConfig,
-    history: Option<History>,
-    /// The rates of the last judged trial `(t, dt, rates)`, reused by `accepted`.
-    judged: Option<(f64, f64, History)>,
-    /// A history no longer needed, whose arrays the next estimate overwrites.
-    spare: Option<History>,
-    /// The last judged trial when its check was deferred.
-    deferred: Option<DeferredTrial>,
-}
+pub type TemporalError = crate::temporal::TemporalError<1>;
 
-impl TemporalError {
+impl crate::temporal::TemporalError<1> {
     /// A limit with the given tolerances (validated).
     pub fn new(config: TemporalErrorConfig) -> Result<Self, ConfigError> {
         config.validate()?;
-        Ok(Self {
-            config,
-            history: None,
-            judged: None,
-            spare: None,
-            deferred: None,
-        })
+        Ok(Self::with_config(config))
     }
+}
 
-    /// A history whose arrays can be overwritten (the spare one, or a new empty one).
-    fn take_buffer(&mut self) -> History {
-        self.spare.take().unwrap_or_else(History::empty)
+/// The 1D estimator of the temporal-error limit (module docs): the two passes of
+/// `temporal_kernels` over the particle fields, the history of rates a `History` of
+/// plain arrays. It keeps no memory of its own.
+#[derive(Clone, Debug, Default)]
+pub struct RateKernels;
+
+impl TemporalDim for Dim<1> {
+    type Estimator = RateKernels;
+}
+
+fn other(message: String) -> LimitError {
+    LimitError::Other {
+        limit: TEMPORAL_ERROR.to_string(),
+        message,
     }
+}
 
-    /// Keeps `h`'s arrays for the next estimate.
-    fn recycle(&mut self, h: History) {
-        self.spare = Some(h);
-    }
-
-    fn other(message: String) -> LimitError {
-        LimitError::Other {
-            limit: TEMPORAL_ERROR.to_string(),
-            message,
-        }
-    }
-
+impl RateKernels {
     fn check_views(before: &View<'_>, after: &View<'_>) -> Result<(), LimitError> {
         let n = before.n_particles();
         if after.n_particles() != n
@@ -162,7 +147,7 @@ impl TemporalError {
             || before.sigma.len() != n
             || after.sigma.len() != n
         {
-            return Err(Self::other(format!(
+            return Err(other(format!(
                 "particle counts differ between committed ({n}) and trial ({}) states",
                 after.n_particles()
             )));
@@ -180,7 +165,7 @@ impl TemporalError {
             || view.node_velocity.len() != nodes
             || view.tangent_modulus.len() != n
         {
-            return Err(Self::other(
+            return Err(other(
                 "view's weights, nodal fields and particle fields have inconsistent sizes"
                     .to_string(),
             ));
@@ -205,11 +190,11 @@ impl TemporalError {
         use crate::estimators::{
             local_stress::local_stress_error, stress_divergence_error, Recovery,
         };
-        let err = |e: crate::estimators::EstimatorError| Self::other(format!("balance: {e}"));
+        let err = |e: crate::estimators::EstimatorError| other(format!("balance: {e}"));
         let ea = stress_divergence_error(view).map_err(err)?;
         let mut ea_p = vec![0.0; view.n_particles()];
         if ea.len() != view.weights.n_nodes() || view.weights.n_particles() != ea_p.len() {
-            return Err(Self::other("balance: inconsistent view sizes".to_string()));
+            return Err(other("balance: inconsistent view sizes".to_string()));
         }
         view.weights.gather(WeightKind::S, &ea, &mut ea_p);
         let sv = ea_p.iter().map(|e| dt * e.abs()).collect();
@@ -232,13 +217,13 @@ impl TemporalError {
     /// and `‖σ‖_∞ = max(max_p σ̂_p, √(max_p v̂_p² z_p²))` (√ is monotone: one square root
     /// per step instead of one per particle; equal to the per-particle forms to within an
     /// ulp, and the scales only set tolerances).
-    fn estimate(
-        &self,
+    fn estimate_into(
+        shared: Shared<'_, History>,
         before: &View<'_>,
         after: &View<'_>,
         dt: f64,
         out: &mut History,
-    ) -> Result<(f64, f64, f64), LimitError> {
+    ) -> Result<Estimate, LimitError> {
         Self::check_views(before, after)?;
         let n = before.n_particles();
         let (v0, v1) = (&before.v[..n], &after.v[..n]);
@@ -266,7 +251,7 @@ impl TemporalError {
         let (accel, stress_rate) = (&out.accel[..n], &out.stress_rate[..n]);
         // Second time derivatives d²u/dt² = (x_p − y_p)/span.
         let nodal;
-        let (xv, yv, xs, ys, span): (&[f64], &[f64], &[f64], &[f64], f64) = match &self.history {
+        let (xv, yv, xs, ys, span): (&[f64], &[f64], &[f64], &[f64], f64) = match shared.history {
             Some(h) if h.accel.len() == n && h.stress_rate.len() == n => (
                 accel,
                 &h.accel,
@@ -282,9 +267,9 @@ impl TemporalError {
             }
         };
         // The weights' field scales: the rule of every dimension (`crate::temporal::scales`).
-        let prev = self.history.as_ref().map(|h| (h.v_scale, h.sigma_scale));
+        let prev = shared.history.map(|h| (h.v_scale, h.sigma_scale));
         let (weight_v, weight_s) = weight_scales((v_scale, sigma_scale), prev);
-        let c = &self.config;
+        let c = shared.config;
         let spatial = match c.balance {
             Some(kappa) => {
                 let (mut sv, mut ss) = Self::spatial(before, dt)?;
@@ -322,140 +307,95 @@ impl TemporalError {
         out.dt = dt;
         out.v_scale = v_scale;
         out.sigma_scale = sigma_scale;
-        Ok((dsm, dsm_v, dsm_s))
+        Ok(Estimate {
+            dsm,
+            dsm_v,
+            dsm_sigma: dsm_s,
+            count: None,
+            v_scale,
+            sigma_scale,
+        })
     }
 }
 
-impl StepLimit for TemporalError {
-    fn name(&self) -> &str {
-        TEMPORAL_ERROR
+impl TemporalEstimator<Dim<1>> for RateKernels {
+    type History = History;
+
+    const INCONSISTENT: &'static str =
+        "cannot restore state: rates, step, gap and schedule do not belong together";
+
+    /// The 1D steppers hand over every array: the trait's default.
+    const ON_DEMAND: bool = false;
+
+    fn deferrable(history: &History, before: &View<'_>, after: &View<'_>) -> bool {
+        let n = after.n_particles();
+        history.accel.len() == n && before.n_particles() == n
     }
 
-    /// No opinion (`∞`): the controller's filter proposes the accuracy-limited step.
-    fn propose(&mut self, _state: &View<'_>) -> Result<Proposal, LimitError> {
-        Ok(Proposal::no_opinion())
+    /// Always: the judged trial's rates become the history when it is accepted.
+    fn keeps_rates(_before: &View<'_>, _after: &View<'_>) -> bool {
+        true
     }
 
-    fn judge(
+    fn estimate(
         &mut self,
+        shared: Shared<'_, History>,
         before: &View<'_>,
         after: &View<'_>,
         dt: f64,
-    ) -> Result<Judgement, LimitError> {
-        self.deferred = None;
-        let n = after.n_particles();
-        let deferrable = self.history.as_ref().and_then(|h| {
-            h.defer
-                .predict(h.dt, dt, &self.config)
-                .filter(|_| h.accel.len() == n && before.n_particles() == n)
-        });
-        if let Some(predicted) = deferrable {
-            self.deferred = Some(DeferredTrial { t: before.t, dt });
-            return Ok(DeferredTrial::judgement(predicted));
-        }
-        let mut rates = self.take_buffer();
-        let (dsm, dsm_v, dsm_s) = match self.estimate(before, after, dt, &mut rates) {
-            Ok(e) => e,
-            Err(e) => {
-                self.recycle(rates);
-                return Err(e);
-            }
-        };
-        rates.defer.dsm = dsm;
-        if let Some((_, _, old)) = self.judged.replace((before.t, dt, rates)) {
-            self.recycle(old);
-        }
-        let mut metrics = Metrics::new();
-        metrics.insert(metric::DSM.to_string(), dsm);
-        metrics.insert("dsm_v".to_string(), dsm_v);
-        metrics.insert("dsm_sigma".to_string(), dsm_s);
-        let verdict = if dsm <= 1.0 {
-            Verdict::Accept
-        } else if dsm.is_nan() {
-            Verdict::Reject {
-                cause: RejectCause::NonFinite,
-                suggested_dt: None,
-            }
-        } else {
-            Verdict::Reject {
-                cause: RejectCause::Error,
-                suggested_dt: None,
-            }
-        };
-        Ok(Judgement { verdict, metrics })
+        out: Option<&mut History>,
+    ) -> Result<Estimate, LimitError> {
+        let mut own = History::default();
+        Self::estimate_into(shared, before, after, dt, out.unwrap_or(&mut own))
     }
 
-    fn accepted(&mut self, before: &View<'_>, after: &View<'_>, dt: f64) {
-        if deferral::spend_deferred(&mut self.history, self.deferred.take(), before.t, dt) {
-            return;
-        }
-        // Reuse the rates of the judged trial when it is this one (same start time and
-        // step); otherwise recompute them. The replaced history's arrays are kept for the
-        // next estimate.
-        let new = match self.judged.take() {
-            Some((t, d, h)) if t.to_bits() == before.t.to_bits() && d.to_bits() == dt.to_bits() => {
-                Some(h)
-            }
-            stale => {
-                if let Some((_, _, h)) = stale {
-                    self.recycle(h);
-                }
-                let mut h = self.take_buffer();
-                match self.estimate(before, after, dt, &mut h) {
-                    Ok((dsm, _, _)) => {
-                        h.defer.dsm = dsm;
-                        Some(h)
-                    }
-                    Err(_) => {
-                        self.recycle(h);
-                        None
-                    }
-                }
-            }
-        };
-        if let Some(old) = deferral::install(&mut self.history, new, &self.config) {
-            self.recycle(old);
-        }
+    /// The first pass of `temporal_kernels` alone (the limit keeps every judged
+    /// trial's rates, so this is not called in a run).
+    fn rates_into(
+        _pool: Option<&rayon::ThreadPool>,
+        before: &View<'_>,
+        after: &View<'_>,
+        dt: f64,
+        e: &Estimate,
+        out: &mut History,
+    ) {
+        let n = before.n_particles().min(after.n_particles());
+        let n = n.min(before.v.len()).min(after.v.len());
+        let n = n.min(before.sigma.len()).min(after.sigma.len());
+        let (et, rho) = (before.tangent_modulus, before.density);
+        let nz = n.min(et.len()).min(rho.len());
+        out.accel.resize(n, 0.0);
+        out.stress_rate.resize(n, 0.0);
+        dispatch_rates(
+            Fields {
+                v0: &before.v[..n],
+                v1: &after.v[..n],
+                s0: &before.sigma[..n],
+                s1: &after.sigma[..n],
+                et: &et[..nz],
+                rho: &rho[..nz],
+            },
+            1.0 / dt,
+            &mut out.accel[..n],
+            &mut out.stress_rate[..n],
+        );
+        out.dt = dt;
+        out.v_scale = e.v_scale;
+        out.sigma_scale = e.sigma_scale;
     }
 
-    /// Any rejection ends a deferral ([`super::deferral`]): the next trial is checked.
-    fn rejected(&mut self, _dt: f64, _cause: RejectCause) {
-        if let Some((_, _, h)) = self.judged.take() {
-            self.recycle(h);
-        }
-        self.deferred = None;
-        if let Some(h) = self.history.as_mut() {
-            h.defer.reset();
-        }
+    fn consistent(h: &History) -> bool {
+        h.accel.len() == h.stress_rate.len()
+            && h.dt.is_finite()
+            && h.dt > 0.0
+            && h.defer.consistent()
     }
 
-    fn save_state(&self) -> Option<serde_json::Value> {
-        serde_json::to_value(&self.history).ok()
-    }
-
-    fn restore_state(&mut self, state: &serde_json::Value) -> Result<(), LimitError> {
-        let history: Option<History> =
-            serde_json::from_value(state.clone()).map_err(|e| LimitError::Restore {
-                limit: TEMPORAL_ERROR.to_string(),
-                source: e.into(),
-            })?;
-        let consistent = |h: &History| {
-            h.accel.len() == h.stress_rate.len()
-                && h.dt.is_finite()
-                && h.dt > 0.0
-                && h.defer.consistent()
-        };
-        if history.as_ref().is_some_and(|h| !consistent(h)) {
-            return Err(Self::other(
-                "cannot restore state: rates, step, gap and schedule do not belong together"
-                    .to_string(),
-            ));
-        }
-        // A schedule saved under a larger `max_deferred` defers no more than this one.
-        self.history = history.map(|mut h| {
-            h.defer.clamp(self.config.max_deferred);
-            h
-        });
-        Ok(())
+    /// None: the 1D limit has never counted its arrays (its [`StepLimit::memory_bytes`] is
+    /// 0, as before the limits were unified).
+    ///
+    /// [`StepLimit::memory_bytes`]: crate::limit::StepLimit::memory_bytes
+    fn history_bytes(_history: &History) -> usize {
+        0
     }
 }

@@ -216,8 +216,7 @@ impl<const D: usize> StabilityNd<D> {
         diag: Option<(f64, usize)>,
         bound: Option<f64>,
     ) -> Result<f64, LimitError> {
-        // Before the gain: under APIC a fluid steps on eq 56 (`policy::note_fluid`).
-        self.note_fluid(view);
+        self.note_fluid(view); // Before the gain: under APIC a fluid steps on eq 56.
         let n = view.n_nodes() * D;
         let space = NodalSpace::new(view, &*self.reduce);
         // Component `c` of the local vectors is component `global(c)` of the whole grid's:

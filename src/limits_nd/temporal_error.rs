@@ -1,6 +1,10 @@
-//! [`TemporalErrorNd`]: the temporal local error of the USL step (eqs 20–30) in `d`
-//! dimensions, the counterpart of the 1D [`crate::controller::TemporalError`] with the same
-//! settings ([`TemporalErrorConfig`]) and the same scaled norm.
+//! The temporal local error of the USL step (eqs 20–30) in `d` dimensions: the estimator
+//! [`RateSweeps<D>`] of [`crate::temporal::TemporalError<D>`] ([`TemporalErrorNd<D>`], the
+//! older name, kept), with the same settings ([`TemporalErrorConfig`]) and the same scaled
+//! norm as the 1D one. What every dimension shares — the deferral, the judged-trial cache,
+//! the metrics and verdict, the checkpoint state — is in [`crate::temporal::limit`]; the
+//! sweeps over the particles, their pairing across processes and the history of rates are
+//! here and in `temporal_sweep`.
 //!
 //! Per particle, the forward-Euler local errors of eqs 20/23 (velocity) and eq 28 (stress)
 //! are `le_v,p = dt²/2 · |d²v_p/dt²|` and `le_σ,p = dt²/2 · ‖d²σ_p/dt²‖`, with `|·|` the
@@ -71,37 +75,19 @@
 //! **Not carried over:** the balancing of eq 44's spatial error (`balance`), whose
 //! estimators are 1D; a configured `balance` is reported as an error, not ignored.
 
-mod accept;
 mod passes;
 
-use super::temporal_sweep::{stamp, History, Pairing, LEFT_OUT, NONE};
+use super::temporal_sweep::{rates_into, stamp, History, Pairing, LEFT_OUT, NONE};
 use crate::dimension::{Dim, Dimension};
-use crate::limit::metric;
-use crate::limit::{
-    Judgement, LimitCall, LimitError, Metrics, Proposal, RejectCause, StepLimit, Verdict,
-};
+use crate::limit::LimitError;
 use crate::nd::ViewNd;
-use crate::temporal::deferral::{self, DeferredTrial};
-use crate::temporal::{TemporalErrorConfig, TEMPORAL_ERROR};
-use accept::Judged;
+use crate::temporal::limit::{Estimate, Shared, TemporalDim, TemporalEstimator};
+use crate::temporal::{TemporalError, TemporalErrorConfig, TEMPORAL_ERROR};
 
-/// What one estimate gives.
-#[derive(Clone, Copy, Debug)]
-struct Estimate {
-    dsm: f64,
-    dsm_v: f64,
-    dsm_sigma: f64,
-    /// Particles in the norm (`N`).
-    count: usize,
-    /// `‖v‖_∞`, `‖σ‖_∞` of the trial (module docs).
-    v_scale: f64,
-    sigma_scale: f64,
-}
-
-/// The temporal-error limit in `d` dimensions: proposes nothing itself (the controller's
-/// filter does, from the `dsm` it reports) and judges each trial by `dsm ≤ 1` (the
-/// estimate, its weights and its deferral are in the [module docs](self)). The
-/// per-particle arrays are allocated once per run and reused.
+/// The temporal-error limit in `d` dimensions, `TemporalError<D>`: the older name, kept. It
+/// proposes nothing itself (the controller's filter does, from the `dsm` it reports) and
+/// judges each trial by `dsm ≤ 1` (the estimate, its weights and its deferral are in the
+/// [module docs](self)). The per-particle arrays are allocated once per run and reused.
 ///
 /// # Memory
 ///
@@ -113,60 +99,49 @@ struct Estimate {
 /// states, `(u^{n+1} − u^n)/dt` with the same operations, and written over the history
 /// in place. Only where particles changed process in a trial (a grid-decomposed run) are
 /// its rates formed into a second history while it is judged, and the run-wide id table
-/// kept (4 bytes per particle of the whole run). [`Self::memory_bytes`] sums what is held.
-#[derive(Clone, Debug)]
-pub struct TemporalErrorNd<const D: usize> {
-    config: TemporalErrorConfig,
-    history: Option<History<D>>,
-    /// The last judged trial, reused by `accepted`.
-    judged: Option<Judged<D>>,
-    /// A history no longer needed, whose arrays the next estimate overwrites.
-    spare: Option<History<D>>,
-    /// Run-wide id → committed index (grid-decomposed runs, steps where particles moved).
-    slot_before: Vec<u32>,
-    /// The last judged trial when its check was deferred.
-    deferred: Option<DeferredTrial>,
-    /// The controller's threads, for the sweeps ([`sweep`]).
-    pool: Option<std::sync::Arc<rayon::ThreadPool>>,
+/// kept (4 bytes per particle of the whole run). [`TemporalError::memory_bytes`] sums what
+/// is held.
+pub type TemporalErrorNd<const D: usize> = TemporalError<D>;
+
+impl<const D: usize> TemporalError<D>
+where
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+{
+    /// A limit with the tolerances of `config` (the 1D limit's settings; `enabled` is for
+    /// [`crate::controller::standard_limits`]), checked before the first proposal.
+    pub fn new(config: TemporalErrorConfig) -> Self {
+        Self::with_config(config)
+    }
 }
 
-impl<const D: usize> TemporalErrorNd<D> {
-    /// A limit with the tolerances of `config` (the 1D limit's settings; `enabled` is for
-    /// [`crate::controller::standard_limits`]).
-    pub fn new(config: TemporalErrorConfig) -> Self {
-        Self {
-            config,
-            history: None,
-            judged: None,
-            spare: None,
-            slot_before: Vec::new(),
-            deferred: None,
-            pool: None,
-        }
-    }
+/// The 2D/3D estimator of the temporal-error limit (module docs): the sweeps of
+/// `temporal_sweep` over the particles, matched across processes by run-wide id on a
+/// grid-decomposed run. Its own memory is the id table of such a run.
+#[derive(Clone, Debug, Default)]
+pub struct RateSweeps<const D: usize> {
+    /// Run-wide id → committed index (grid-decomposed runs, steps where particles moved).
+    slot_before: Vec<u32>,
+}
 
-    /// `dsm` of a trial of step `dt` predicted from the history's checked one, when this
-    /// trial's check is deferred ([`Deferral::predict`]) and the trial keeps its particles
-    /// in their committed order (on a grid-decomposed run a trial that moves particles
-    /// between processes is checked, so that the history keeps following that order).
-    fn deferrable(&self, before: &ViewNd<'_, D>, after: &ViewNd<'_, D>, dt: f64) -> Option<f64> {
-        let h = self.history.as_ref()?;
-        // The ids are compared only for a trial the schedule would defer.
-        let same_particles = || match (before.split, after.split) {
-            (None, None) => true,
-            (Some(b), Some(a)) => a.particle_id == b.particle_id,
-            _ => false,
-        };
-        h.defer
-            .predict(h.dt, dt, &self.config)
-            .filter(|_| same_particles())
-    }
+impl<const D: usize> TemporalDim for Dim<D>
+where
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+{
+    type Estimator = RateSweeps<D>;
+}
 
-    fn other(message: String) -> LimitError {
-        LimitError::Other {
-            limit: TEMPORAL_ERROR.to_string(),
-            message,
-        }
+fn other(message: String) -> LimitError {
+    LimitError::Other {
+        limit: TEMPORAL_ERROR.to_string(),
+        message,
+    }
+}
+
+impl<const D: usize> RateSweeps<D> {
+    /// Whether particles changed process in the trial: a grid-decomposed run whose trial
+    /// holds other run-wide ids than the committed state.
+    fn moved(before: &ViewNd<'_, D>, after: &ViewNd<'_, D>) -> bool {
+        matches!((before.split, after.split), (Some(b), Some(a)) if a.particle_id != b.particle_id)
     }
 
     /// Checks the slices the estimate reads.
@@ -191,7 +166,7 @@ impl<const D: usize> TemporalErrorNd<D> {
         if ok {
             Ok(())
         } else {
-            Err(Self::other(
+            Err(other(
                 "view's particle, weight and nodal arrays have inconsistent sizes".to_string(),
             ))
         }
@@ -204,45 +179,73 @@ impl<const D: usize> TemporalErrorNd<D> {
         for (k, &id) in ids.iter().enumerate().filter(|(_, &id)| id != LEFT_OUT) {
             let cell = slot
                 .get_mut(id as usize)
-                .ok_or_else(|| Self::other(format!("particle id {id} ≥ total {n_total}")))?;
+                .ok_or_else(|| other(format!("particle id {id} ≥ total {n_total}")))?;
             *cell = k as u32;
         }
         Ok(())
     }
+}
+
+impl<const D: usize> TemporalEstimator<Dim<D>> for RateSweeps<D>
+where
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+{
+    type History = History<D>;
+
+    const INCONSISTENT: &'static str =
+        "cannot restore state: rates, ids and step do not belong together";
+
+    /// The steppers of `crate::nd` may hand over their arrays on demand.
+    const ON_DEMAND: bool = true;
 
     /// The 1D-only balancing is refused, not ignored; invalid tolerances (as
     /// [`TemporalErrorConfig::validate`] finds them) likewise.
-    fn supported(&self) -> Result<(), LimitError> {
-        self.config
-            .validate()
-            .map_err(|source| LimitError::Config {
-                limit: TEMPORAL_ERROR.to_string(),
-                source,
-            })?;
-        match self.config.balance {
-            Some(_) => Err(Self::other(
+    fn supported(config: &TemporalErrorConfig) -> Result<(), LimitError> {
+        config.validate().map_err(|source| LimitError::Config {
+            limit: TEMPORAL_ERROR.to_string(),
+            source,
+        })?;
+        match config.balance {
+            Some(_) => Err(other(
                 "temporal.balance (eq 44's spatial error) is 1D only".to_string(),
             )),
             None => Ok(()),
         }
     }
 
+    /// When the trial keeps its particles in their committed order (on a grid-decomposed
+    /// run a trial that moves particles between processes is checked, so that the history
+    /// keeps following that order).
+    fn deferrable(_history: &History<D>, before: &ViewNd<'_, D>, after: &ViewNd<'_, D>) -> bool {
+        match (before.split, after.split) {
+            (None, None) => true,
+            (Some(b), Some(a)) => a.particle_id == b.particle_id,
+            _ => false,
+        }
+    }
+
+    /// Only where particles changed process in the trial (the type's docs, "Memory").
+    fn keeps_rates(before: &ViewNd<'_, D>, after: &ViewNd<'_, D>) -> bool {
+        Self::moved(before, after)
+    }
+
     /// Computes the estimate of a trial and writes its rates into `out`.
     fn estimate(
         &mut self,
+        shared: Shared<'_, History<D>>,
         before: &ViewNd<'_, D>,
         after: &ViewNd<'_, D>,
         dt: f64,
         mut out: Option<&mut History<D>>,
     ) -> Result<Estimate, LimitError> {
-        self.supported()?;
+        Self::supported(shared.config)?;
         Self::check(before)?;
         Self::check(after)?;
         let n = after.n_particles();
         // Partners by index, or by run-wide id where particles changed process.
         let (split, moved) = self.partners(before, after)?;
         let before_ids = before.split.map(|b| b.particle_id);
-        let history = self.usable_history(before);
+        let history = Self::usable_history(shared.history, before);
         // Every entry is written by the first sweep (the arrays keep their length).
         if let Some(out) = out.as_deref_mut() {
             Self::prepare(out, n, split);
@@ -253,166 +256,36 @@ impl<const D: usize> TemporalErrorNd<D> {
             before_ids,
             history,
         };
-        let passes = self.passes(before, after, dt, &pair, out.as_deref_mut());
+        let passes = Self::passes(&shared, before, after, dt, &pair, out.as_deref_mut());
         if let Some(out) = out {
             stamp(out, dt, passes.v_scale, passes.sigma_scale);
         }
         Ok(passes.estimate())
     }
 
-    /// A history whose arrays the next estimate overwrites.
-    fn take_buffer(&mut self) -> History<D> {
-        self.spare.take().unwrap_or_default()
-    }
-}
-
-impl<const D: usize> StepLimit<D> for TemporalErrorNd<D>
-where
-    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
-{
-    fn name(&self) -> &str {
-        TEMPORAL_ERROR
-    }
-
-    /// No opinion (`∞`): the controller's filter proposes the accuracy-limited step. A
-    /// setting the limit cannot honour (`balance`) ends the run here, before a trial.
-    fn propose(&mut self, _state: &ViewNd<'_, D>) -> Result<Proposal, LimitError> {
-        self.supported()?;
-        Ok(Proposal::no_opinion())
-    }
-
-    fn judge(
-        &mut self,
+    /// `(u^{n+1} − u^n)/dt` with the sweep's operations (the same values, bit for bit).
+    fn rates_into(
+        pool: Option<&rayon::ThreadPool>,
         before: &ViewNd<'_, D>,
         after: &ViewNd<'_, D>,
         dt: f64,
-    ) -> Result<Judgement, LimitError> {
-        self.deferred = None;
-        if let Some(predicted) = self.deferrable(before, after, dt) {
-            self.supported()?;
-            self.deferred = Some(DeferredTrial { t: before.t, dt });
-            return Ok(DeferredTrial::judgement(predicted));
-        }
-        let judged = self.judge_trial(before, after, dt)?;
-        let e = judged.estimate;
-        if let Some(old) = self.judged.replace(judged).and_then(|j| j.rates) {
-            self.spare = Some(old);
-        }
-        let mut metrics = Metrics::new();
-        metrics.insert(metric::DSM.to_string(), e.dsm);
-        metrics.insert("dsm_v".to_string(), e.dsm_v);
-        metrics.insert("dsm_sigma".to_string(), e.dsm_sigma);
-        metrics.insert("dsm_particles".to_string(), e.count as f64);
-        let verdict = if e.dsm <= 1.0 {
-            Verdict::Accept
-        } else {
-            Verdict::Reject {
-                cause: if e.dsm.is_nan() {
-                    RejectCause::NonFinite
-                } else {
-                    RejectCause::Error
-                },
-                suggested_dt: None,
-            }
-        };
-        Ok(Judgement { verdict, metrics })
+        e: &Estimate,
+        out: &mut History<D>,
+    ) {
+        rates_into(pool, before, after, dt, out);
+        stamp(out, dt, e.v_scale, e.sigma_scale);
     }
 
-    /// A proposal reads nothing; a judgement reads both states unless the schedule defers
-    /// the check ([`crate::temporal::deferral`]; the particle ids of a split run are not
-    /// compared here: a stepper hands over on demand in single-process runs only); an
-    /// acceptance unless its trial's check was deferred.
-    fn reads_arrays(&self, call: LimitCall, _state: &ViewNd<'_, D>) -> bool {
-        match call {
-            LimitCall::Propose => false,
-            LimitCall::Judge { dt } => self
-                .history
-                .as_ref()
-                .and_then(|h| h.defer.predict(h.dt, dt, &self.config))
-                .is_none(),
-            LimitCall::Accepted { .. } => self.deferred.is_none(),
-        }
+    fn consistent(history: &History<D>) -> bool {
+        history.consistent()
     }
 
-    fn accepted(&mut self, before: &ViewNd<'_, D>, after: &ViewNd<'_, D>, dt: f64) {
-        if deferral::spend_deferred(&mut self.history, self.deferred.take(), before.t, dt) {
-            return;
-        }
-        // The judged trial's estimate when it is this one, else estimated again.
-        let judged = match self.judged.take() {
-            Some(j) if j.t.to_bits() == before.t.to_bits() && j.dt.to_bits() == dt.to_bits() => {
-                Ok(j)
-            }
-            stale => {
-                if let Some(h) = stale.and_then(|j| j.rates) {
-                    self.spare = Some(h);
-                }
-                self.judge_trial(before, after, dt)
-            }
-        };
-        let old = match judged {
-            Ok(Judged {
-                estimate,
-                rates: None,
-                ..
-            }) => {
-                self.install_in_place(before, after, dt, &estimate);
-                None
-            }
-            Ok(Judged {
-                estimate,
-                rates: Some(mut h),
-                ..
-            }) => {
-                h.defer.dsm = estimate.dsm;
-                deferral::install(&mut self.history, Some(h), &self.config)
-            }
-            Err(_) => deferral::install(&mut self.history, None, &self.config),
-        };
-        if old.is_some() {
-            self.spare = old;
-        }
+    fn history_bytes(history: &History<D>) -> usize {
+        history.heap_bytes()
     }
 
-    /// Any rejection ends a deferral: the next trial is checked.
-    fn rejected(&mut self, _dt: f64, _cause: RejectCause) {
-        if let Some(h) = self.judged.take().and_then(|j| j.rates) {
-            self.spare = Some(h);
-        }
-        self.deferred = None;
-        if let Some(h) = self.history.as_mut() {
-            h.defer.reset();
-        }
-    }
-
+    /// The id table (4 bytes per particle of the whole run, where particles moved).
     fn memory_bytes(&self) -> usize {
-        TemporalErrorNd::memory_bytes(self)
-    }
-
-    fn set_threads(&mut self, pool: Option<std::sync::Arc<rayon::ThreadPool>>) {
-        self.pool = pool;
-    }
-
-    fn save_state(&self) -> Option<serde_json::Value> {
-        serde_json::to_value(&self.history).ok()
-    }
-
-    fn restore_state(&mut self, state: &serde_json::Value) -> Result<(), LimitError> {
-        let history: Option<History<D>> =
-            serde_json::from_value(state.clone()).map_err(|e| LimitError::Restore {
-                limit: TEMPORAL_ERROR.to_string(),
-                source: e.into(),
-            })?;
-        if history.as_ref().is_some_and(|h| !h.consistent()) {
-            return Err(Self::other(
-                "cannot restore state: rates, ids and step do not belong together".to_string(),
-            ));
-        }
-        self.history = history.map(|mut h| {
-            // A schedule saved under a larger `max_deferred` defers no more than this one.
-            h.defer.clamp(self.config.max_deferred);
-            h
-        });
-        Ok(())
+        self.slot_before.capacity() * std::mem::size_of::<u32>()
     }
 }

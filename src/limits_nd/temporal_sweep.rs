@@ -1,4 +1,4 @@
-//! The per-particle pass of [`super::TemporalErrorNd`] (module docs there): the history it
+//! The per-particle pass of [`super::temporal_error::RateSweeps`] (module docs there): the history it
 //! keeps, how trial particles find their committed state and history, and the sweep that
 //! forms the rates, the field-scale maxima and the sums of the scaled errors.
 
@@ -16,22 +16,22 @@ pub(super) const LEFT_OUT: u64 = u64::MAX;
 
 /// Rates of the last checked, accepted step, kept for the next estimate.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub(super) struct History<const D: usize> {
+pub struct History<const D: usize> {
     /// The step the rates were formed over.
-    pub dt: f64,
+    pub(super) dt: f64,
     /// `(v^{n+1} − v^n)/dt` per particle.
-    pub accel: Vec<Vector<D>>,
+    pub(super) accel: Vec<Vector<D>>,
     /// `(σ^{n+1} − σ^n)/dt` per particle (packed while symmetric, [`StressRates`]).
-    pub stress_rate: StressRates<D>,
+    pub(super) stress_rate: StressRates<D>,
     /// Run-wide particle ids, on a grid-decomposed run (else empty: the index is the id).
-    pub ids: Vec<u64>,
-    /// `‖v‖_∞` of the step (module docs of [`super::TemporalErrorNd`]).
-    pub v_scale: f64,
+    pub(super) ids: Vec<u64>,
+    /// `‖v‖_∞` of the step (module docs of [`super::temporal_error::RateSweeps`]).
+    pub(super) v_scale: f64,
     /// `‖σ‖_∞` of the step.
-    pub sigma_scale: f64,
+    pub(super) sigma_scale: f64,
     /// The deferral schedule after this step, and the time deferred since.
     #[serde(default)]
-    pub defer: Deferral,
+    pub(super) defer: Deferral,
 }
 
 /// How trial particles find their committed state and their history.
@@ -52,6 +52,14 @@ pub(super) struct Pairing<'h, const D: usize> {
 impl<const D: usize> Scheduled for History<D> {
     fn schedule(&mut self) -> &mut Deferral {
         &mut self.defer
+    }
+
+    fn deferral(&self) -> Deferral {
+        self.defer
+    }
+
+    fn step(&self) -> f64 {
+        self.dt
     }
 }
 

@@ -1,5 +1,6 @@
-//! Deferred temporal-error checks, shared by the 1D [`crate::controller::TemporalError`] and the
-//! 2D/3D [`crate::limits_nd::TemporalErrorNd`].
+//! Deferred temporal-error checks of [`super::TemporalError<D>`](super::TemporalError), the
+//! same in every dimension (1D [`crate::controller::TemporalError`], 2D/3D
+//! [`crate::limits_nd::TemporalErrorNd`]).
 //!
 //! At a stable step the temporal error is usually far below its tolerance — the paper (its
 //! introduction and the close of Section 3, after Steffen et al. \[12\]) notes that spatial
@@ -141,9 +142,15 @@ impl Deferral {
 
 /// A history of rates that carries the deferral schedule after its step (the 1D and the
 /// 2D/3D limits keep different rates, the same schedule).
-pub(crate) trait Scheduled {
+pub trait Scheduled {
     /// The schedule after the history's step.
     fn schedule(&mut self) -> &mut Deferral;
+
+    /// The schedule after the history's step, read.
+    fn deferral(&self) -> Deferral;
+
+    /// The step the history's rates were formed over (the last checked step).
+    fn step(&self) -> f64;
 }
 
 /// `accepted` of a limit for the trial it last judged: when that trial's check was

@@ -1,12 +1,14 @@
-//! The phases of [`TemporalErrorNd::estimate`]: the trial's particles paired with the
+//! The phases of the estimate of [`RateSweeps`]: the trial's particles paired with the
 //! committed ones, and the sweeps over them with the weights of the field scales (the
 //! parent module's docs, "One pass").
 
-use super::{Estimate, TemporalErrorNd};
+use super::{other, RateSweeps};
 use crate::limit::LimitError;
 use crate::limits_nd::temporal_sweep::{sweep, History, Pairing, Sweep, Weights};
 use crate::nd::{Vector, ViewNd};
+use crate::temporal::limit::{Estimate, Shared};
 use crate::temporal::scales::weight_scales;
+use crate::temporal::TemporalErrorConfig;
 
 /// The sums of an estimate's last sweep, with what its first sweep found: whether every
 /// rate was finite, and the trial's field scales `‖v‖_∞`, `‖σ‖_∞`.
@@ -20,7 +22,7 @@ pub(super) struct Passes {
 /// The trial's run-wide ids and, where particles changed process, the ids to match by.
 type Partners<'a> = (Option<&'a [u64]>, Option<&'a [u64]>);
 
-impl<const D: usize> TemporalErrorNd<D> {
+impl<const D: usize> RateSweeps<D> {
     /// The trial's run-wide ids (`split`) and, where particles changed process, the same
     /// ids as `moved`, to be matched through `slot_before` (filled here).
     pub(super) fn partners<'a>(
@@ -37,7 +39,7 @@ impl<const D: usize> TemporalErrorNd<D> {
                 Ok((Some(a.particle_id), Some(a.particle_id)))
             }
             (None, None) if before.n_particles() == n => Ok((None, None)),
-            _ => Err(Self::other(format!(
+            _ => Err(other(format!(
                 "committed ({}) and trial ({n}) particles cannot be matched",
                 before.n_particles()
             ))),
@@ -46,10 +48,13 @@ impl<const D: usize> TemporalErrorNd<D> {
 
     /// The history when it describes the committed particles: consistent, as many, and
     /// with run-wide ids exactly when `before` is grid-decomposed.
-    pub(super) fn usable_history(&self, before: &ViewNd<'_, D>) -> Option<&History<D>> {
+    pub(super) fn usable_history<'h>(
+        history: Option<&'h History<D>>,
+        before: &ViewNd<'_, D>,
+    ) -> Option<&'h History<D>> {
         let before_ids = before.split.map(|b| b.particle_id);
         let n_before = before.n_particles();
-        self.history.as_ref().filter(|h| {
+        history.filter(|h| {
             h.consistent()
                 && h.accel.len() == n_before
                 && match before_ids {
@@ -71,8 +76,7 @@ impl<const D: usize> TemporalErrorNd<D> {
 
     /// The weights `w_u = atol_u + atol_rel · s_u + rtol · û_p` for the field scales
     /// `(s_v, s_σ) = (sv, ss)`.
-    fn weights(&self, sv: f64, ss: f64) -> Option<Weights> {
-        let c = &self.config;
+    fn weights(c: &TemporalErrorConfig, sv: f64, ss: f64) -> Option<Weights> {
         Some(Weights {
             rtol: c.rtol,
             abs: (
@@ -86,7 +90,7 @@ impl<const D: usize> TemporalErrorNd<D> {
     /// rates into `out`), a second with the scales of [`weight_scales`] when a scale grew
     /// by more than its slack.
     pub(super) fn passes(
-        &self,
+        shared: &Shared<'_, History<D>>,
         before: &ViewNd<'_, D>,
         after: &ViewNd<'_, D>,
         dt: f64,
@@ -97,8 +101,8 @@ impl<const D: usize> TemporalErrorNd<D> {
         // sweep uses the previous step's, and a second sweep, writing nothing, redoes the
         // sums with `max(new, previous)` only when a scale grew by more than the slack of
         // `crate::temporal::scales` (a run gaining energy).
-        let pool = self.pool.as_deref();
-        let (prev_v, prev_s) = match self.history.as_ref() {
+        let pool = shared.pool;
+        let (prev_v, prev_s) = match shared.history {
             Some(h) => (h.v_scale, h.sigma_scale),
             // No previous scales (the first step, or a history lost): the scales from a
             // pass over the fields alone, so that the sums are taken once, with this
@@ -111,7 +115,7 @@ impl<const D: usize> TemporalErrorNd<D> {
             after,
             dt,
             pair,
-            self.weights(prev_v, prev_s),
+            Self::weights(shared.config, prev_v, prev_s),
             out,
         );
         let finite = first.finite;
@@ -120,7 +124,15 @@ impl<const D: usize> TemporalErrorNd<D> {
         let sweep = if sv.to_bits() == prev_v.to_bits() && ss.to_bits() == prev_s.to_bits() {
             first
         } else {
-            sweep(pool, before, after, dt, pair, self.weights(sv, ss), None)
+            sweep(
+                pool,
+                before,
+                after,
+                dt,
+                pair,
+                Self::weights(shared.config, sv, ss),
+                None,
+            )
         };
         Passes {
             sweep,
@@ -153,7 +165,7 @@ impl Passes {
             dsm,
             dsm_v: (sum_v / nf).sqrt(),
             dsm_sigma: (sum_s / nf).sqrt(),
-            count: self.sweep.count,
+            count: Some(self.sweep.count),
             v_scale: self.v_scale,
             sigma_scale: self.sigma_scale,
         }
