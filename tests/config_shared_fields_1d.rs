@@ -21,66 +21,23 @@
 //! `tests/config_dimensions.rs`, which also checks that the 1D-only fields are accepted.
 //! The 1D-only fields are swept in 1D by `tests/config_one_d_fields.rs`.
 
-use mpm_dt::controller::{Controller, ControllerConfig, ControllerError, Decision};
+use mpm_dt::controller::{Controller, ControllerConfig};
+
+#[path = "common/config_sweep.rs"]
+mod config_sweep;
+use config_sweep::{with, Run};
 use mpm_dt::scenario::Scenario;
-
-fn config(json: &str) -> ControllerConfig {
-    ControllerConfig::from_json(json).unwrap_or_else(|e| panic!("{json}: {e}"))
-}
-
-fn with(fields: &str) -> ControllerConfig {
-    config(&format!("{{{fields}}}"))
-}
 
 /// The standing wave (linear elastic, `A` = 0.01, mode 1) on a periodic bar of 16 cells
 /// with 2 GIMP particles a cell.
 const BAR: &str = r#"{"cells": 16, "particles": {"per_cell": 2},
     "initial": {"standing_wave": {"amplitude": 0.01, "mode": 1}}}"#;
 
-/// What a controlled run did: one line per attempt, then how the run ended.
-#[derive(Debug, PartialEq)]
-struct Run {
-    log: Vec<String>,
-    end: String,
-}
-
-impl Run {
-    fn rejections(&self, cause: &str) -> usize {
-        let tag = format!("Some({cause})");
-        self.log
-            .iter()
-            .filter(|l| l.starts_with("Rejected") && l.contains(&tag))
-            .count()
-    }
-}
-
 /// The standard 1D controller of `c` on the bar, to `T_END`.
 fn run(c: &ControllerConfig) -> Run {
     let mut controller = Controller::<1>::standard(c.clone()).unwrap();
     let mut solver = Scenario::from_json(BAR).unwrap().build().unwrap();
-    let mut log = Vec::new();
-    let mut record = |d: &Decision| {
-        log.push(format!(
-            "{:?} {:e} {} {:?} {:?}",
-            d.outcome,
-            d.dt,
-            d.binding,
-            d.cause,
-            d.dsm.map(|e| format!("{e:e}"))
-        ));
-    };
-    let end = match controller.run_until(&mut solver, T_END, &mut record) {
-        Ok(_) => "finished".to_string(),
-        Err(ControllerError::StepTooSmall { .. }) => "StepTooSmall".to_string(),
-        Err(ControllerError::TooManyRejections { count, .. }) => {
-            format!("TooManyRejections({count})")
-        }
-        Err(ControllerError::GrowthPersists { detections, .. }) => {
-            format!("GrowthPersists({detections})")
-        }
-        Err(e) => format!("error: {e}"),
-    };
-    Run { log, end }
+    Run::of(|record| controller.run_until(&mut solver, T_END, record))
 }
 
 /// Eight periods of the wave (the slowly growing base is detected after about five).
@@ -212,17 +169,17 @@ fn the_bases_reject_as_described_and_the_ending_fields_end_the_1d_run() {
     assert_eq!(run(&with(r#""dt_min": 1.0"#)).end, "StepTooSmall");
     let rejecting = run(&with(REJECTING));
     assert_eq!(rejecting.end, "finished");
-    assert_eq!(rejecting.rejections("Error"), 1);
+    assert_eq!(rejecting.rejections_by("Error"), 1);
     let once = format!(r#"{REJECTING}, "max_consecutive_rejections": 1"#);
     assert_eq!(run(&with(&once)).end, "TooManyRejections(1)");
     let unstable = run(&with(UNSTABLE));
     assert_eq!(unstable.end, "finished");
-    assert!(unstable.rejections("Growth") > 0);
+    assert!(unstable.rejections_by("Growth") > 0);
     let persists = format!(r#"{UNSTABLE}, "growth": {{"min_safety_scale": 0.95}}"#);
     assert_eq!(run(&with(&persists)).end, "GrowthPersists(1)");
     let failing = run(&with(FAILING));
     assert_eq!(failing.end, "finished");
-    assert!(failing.rejections("NonFinite") > 0);
+    assert!(failing.rejections_by("NonFinite") > 0);
     // Twice in a row, so that the second retry is clamped to `max_shrink_repeated`.
     let twice = run(&with(&format!(r#"{FAILING}, "reject_shrink": 0.95"#)));
     let consecutive = twice

@@ -8,81 +8,20 @@
 
 use mpm_dt::controller::standard_limits;
 use mpm_dt::controller::{Controller, ControllerConfig, ControllerError, Decision};
-use mpm_dt::limits_nd::element_bound::element_bound;
 use mpm_dt::limits_nd::STABILITY;
-use mpm_dt::nd::{GridNd, MaterialNd, ParticlesNd, ShapeNd, SolverNd, SummaryNd, Vector};
-use mpm_dt::reduce::SingleProcess;
-use mpm_dt::{Boundary, StepError, Stepper, ViewNd};
+use mpm_dt::nd::Vector;
 
 #[path = "common/jitter.rs"]
 mod jitter;
+#[path = "common/moving_block_3d.rs"]
+mod moving_block_3d;
+#[path = "common/opt_in.rs"]
+mod opt_in;
+use opt_in::OptIn;
 
-/// The 3D block of `tests/config_shared_fields_3d.rs` (2×2×2 particles a cell, periodic
-/// 4×4×4 grid, sheared in each direction), without body force.
-fn block() -> SolverNd<3> {
-    let grid = GridNd::<3>::new([Boundary::Periodic; 3], [4; 3], [1.0; 3]);
-    let material = MaterialNd::NeoHookean {
-        youngs_modulus: 1.0,
-        poisson_ratio: 0.3,
-    };
-    let mut particles = ParticlesNd::uniform(&grid, [2; 3], 1.0, material);
-    let x0 = particles.x.clone();
-    jitter::jitter(&mut particles, 0.3, 7);
-    let wave = |s: f64| 0.1 * (2.0 * std::f64::consts::PI * s).sin();
-    for (v, x) in particles.v.iter_mut().zip(&x0) {
-        v[0] = 0.2 + wave(x[1]);
-        v[1] = wave(x[2]);
-        v[2] = wave(x[0]);
-    }
-    SolverNd::new(grid, ShapeNd::Gimp, particles, Vector::<3>::zeros()).unwrap()
-}
-
-/// The block handing over the element bound of its views (the library's function) when
-/// `on`, and otherwise no bound and no sound-speed step (`tests/common/opt_in.rs` in 3D).
-struct OptIn {
-    solver: SolverNd<3>,
-    on: bool,
-}
-
-impl OptIn {
-    fn with_bound<'a>(&self, view: ViewNd<'a, 3>) -> ViewNd<'a, 3> {
-        let bound = self.on.then(|| element_bound(&view, &SingleProcess).lambda);
-        ViewNd {
-            summary: view.summary.map(|s| SummaryNd {
-                element_bound: bound,
-                sound_unit_step: None,
-                ..s
-            }),
-            ..view
-        }
-    }
-}
-
-impl Stepper<3> for OptIn {
-    fn time(&self) -> f64 {
-        self.solver.time()
-    }
-    fn step_count(&self) -> u64 {
-        self.solver.step_count()
-    }
-    fn try_step(&mut self, dt: f64) -> Result<(), StepError> {
-        self.solver.try_step(dt)
-    }
-    fn accept(&mut self) -> Result<(), StepError> {
-        self.solver.accept()
-    }
-    fn reject(&mut self) {
-        self.solver.reject()
-    }
-    fn view(&self) -> ViewNd<'_, 3> {
-        self.with_bound(self.solver.view())
-    }
-    fn trial_view(&self) -> Option<ViewNd<'_, 3>> {
-        self.solver.trial_view().map(|v| self.with_bound(v))
-    }
-    fn provide_summary(&mut self, on: bool) -> bool {
-        self.solver.provide_summary(on)
-    }
+/// The 3D block of `tests/config_shared_fields_3d.rs`, without body force.
+fn block() -> mpm_dt::nd::SolverNd<3> {
+    moving_block_3d::moving_block_3d([0.0; 3])
 }
 
 /// Every decision's outcome, step and the stability limit's numbers (λmax, refreshes,

@@ -1,4 +1,4 @@
-//! [`OptIn`]: a 2D reference solver opting in to the stepper contract with the element
+//! [`OptIn`]: a 2D or 3D reference solver opting in to the stepper contract with the element
 //! bound of its own views (computed by the library's function, so the numbers are the
 //! ones the generic path computes), or, when not opting in, handing over no bound and no
 //! speed-of-sound step at all (the generic path: the reference solver's own figures
@@ -8,16 +8,19 @@
 use mpm_dt::limits_nd::element_bound::element_bound;
 use mpm_dt::nd::{SolverNd, SummaryNd};
 use mpm_dt::reduce::SingleProcess;
-use mpm_dt::{StepError, Stepper, ViewNd};
+use mpm_dt::{Dim, Dimension, StepError, Stepper, ViewNd};
 
 /// The solver, handing over the element bound in its views' summaries when `on`.
-pub struct OptIn {
-    pub solver: SolverNd<2>,
+pub struct OptIn<const D: usize = 2> {
+    pub solver: SolverNd<D>,
     pub on: bool,
 }
 
-impl OptIn {
-    fn with_bound<'a>(&self, view: ViewNd<'a, 2>) -> ViewNd<'a, 2> {
+impl<const D: usize> OptIn<D>
+where
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+{
+    fn with_bound<'a>(&self, view: ViewNd<'a, D>) -> ViewNd<'a, D> {
         let bound = self.on.then(|| element_bound(&view, &SingleProcess).lambda);
         ViewNd {
             summary: view.summary.map(|s| SummaryNd {
@@ -30,7 +33,10 @@ impl OptIn {
     }
 }
 
-impl Stepper<2> for OptIn {
+impl<const D: usize> Stepper<D> for OptIn<D>
+where
+    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
+{
     fn time(&self) -> f64 {
         self.solver.time()
     }
@@ -46,10 +52,10 @@ impl Stepper<2> for OptIn {
     fn reject(&mut self) {
         self.solver.reject()
     }
-    fn view(&self) -> ViewNd<'_, 2> {
+    fn view(&self) -> ViewNd<'_, D> {
         self.with_bound(self.solver.view())
     }
-    fn trial_view(&self) -> Option<ViewNd<'_, 2>> {
+    fn trial_view(&self) -> Option<ViewNd<'_, D>> {
         self.solver.trial_view().map(|v| self.with_bound(v))
     }
     fn provide_summary(&mut self, on: bool) -> bool {
