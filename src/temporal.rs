@@ -2,17 +2,15 @@
 //! [`TemporalError<D>`] ([`limit`], the shared control flow, with the dimension's estimator
 //! behind [`TemporalEstimator`]), its settings ([`TemporalErrorConfig`]), its name in logs,
 //! the field scales of its weights ([`scales`]) and the deferral of checks while the error is
-//! small ([`deferral`]). The estimators: the 1D [`RateKernels`]
+//! small ([`deferral`]). The estimators: the 1D [`crate::controller::RateKernels`]
 //! ([`crate::controller::TemporalError`] is `TemporalError<1>`) and the 2D/3D
-//! [`RateSweeps<D>`] ([`crate::limits_nd::TemporalErrorNd<D>`] is `TemporalError<D>`).
+//! [`crate::limits_nd::RateSweeps<D>`] ([`crate::limits_nd::TemporalErrorNd<D>`] is `TemporalError<D>`).
 
 mod config;
 pub mod deferral;
 pub mod limit;
 pub mod scales;
 
-pub use crate::controller::temporal_error::RateKernels;
-pub use crate::limits_nd::temporal_error::RateSweeps;
 pub use config::TemporalErrorConfig;
 pub use limit::{Estimate, TemporalDim, TemporalError, TemporalEstimator};
 

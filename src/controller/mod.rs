@@ -74,7 +74,7 @@ pub use filter::{FilterPreset, SoderlindFilter, DSM_FLOOR};
 pub use scaled::SafetyScaled;
 pub use standard::{standard_limits, StandardLimits};
 pub use stats::Stats;
-pub use temporal_error::{TemporalError, TEMPORAL_ERROR};
+pub use temporal_error::{RateKernels, TemporalError, TEMPORAL_ERROR};
 
 use crate::dimension::{Dim, Dimension};
 use crate::limit::StepLimit;

@@ -65,7 +65,7 @@ pub use crate::sound_speed::SOUND_SPEED;
 pub use growth::{GrowthNd, GROWTH};
 pub use stability::{StabilityNd, STABILITY};
 pub use stability_config::StabilityNdConfig;
-pub use temporal_error::TemporalErrorNd;
+pub use temporal_error::{RateSweeps, TemporalErrorNd};
 pub use transfer::{apic_gain, TransferNd};
 
 // The critical steps for verification run the 2D/3D reference solver: they live in the test

@@ -84,7 +84,7 @@
 mod full_map_gain;
 mod guard;
 mod guard_scan;
-mod on_summary;
+pub mod on_summary;
 mod policy;
 pub use on_summary::SUMMARY_CHECK_EVERY;
 

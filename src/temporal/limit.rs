@@ -28,8 +28,8 @@
 //!
 //! | `D` | estimator | passes | maths and file |
 //! |---|---|---|---|
-//! | 1 | [`RateKernels`](super::RateKernels) | two passes of SIMD kernels | `controller/temporal_error.rs` (module docs: eqs 20–30, the weights, the first step's nodal rates, eq 44's balancing, the interpretations) |
-//! | 2, 3 | [`RateSweeps<D>`](super::RateSweeps) | one sweep (two when a scale grew), threaded; particles matched by id on a split grid | [`crate::limits_nd::temporal_error`] |
+//! | 1 | [`RateKernels`](crate::controller::RateKernels) | two passes of SIMD kernels | `controller/temporal_error.rs` (module docs: eqs 20–30, the weights, the first step's nodal rates, eq 44's balancing, the interpretations) |
+//! | 2, 3 | [`RateSweeps<D>`](crate::limits_nd::RateSweeps) | one sweep (two when a scale grew), threaded; particles matched by id on a split grid | [`crate::limits_nd::temporal_error`] |
 //!
 //! The older names stay: [`crate::controller::TemporalError`] is `TemporalError<1>` and
 //! [`crate::limits_nd::TemporalErrorNd<D>`] is `TemporalError<D>`.
@@ -138,8 +138,8 @@ pub trait TemporalEstimator<T: Dimension>: Clone + std::fmt::Debug + Default {
 }
 
 /// The dimension's [`TemporalEstimator`]: implemented for `Dim<1>`
-/// ([`RateKernels`](super::RateKernels)) and for every `Dim<D>` whose view is a
-/// [`crate::nd::ViewNd`], `Dim<2>` and `Dim<3>` ([`super::RateSweeps`]).
+/// ([`RateKernels`](crate::controller::RateKernels)) and for every `Dim<D>` whose view is a
+/// [`crate::nd::ViewNd`], `Dim<2>` and `Dim<3>` ([`crate::limits_nd::RateSweeps`]).
 pub trait TemporalDim: Dimension + Sized {
     /// The estimator of the temporal-error limit in this dimension.
     type Estimator: TemporalEstimator<Self>;
