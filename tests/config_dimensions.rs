@@ -3,10 +3,7 @@
 //! setting of the stability and growth limits is reachable from the JSON config and
 //! changes what a 2D run does.
 
-use mpm_dt::controller::standard_limits;
-use mpm_dt::controller::{ConfigError, Controller, ControllerConfig, ControllerError, Decision};
-use mpm_dt::limits_nd::STABILITY;
-use mpm_dt::nd::Vector;
+use mpm_dt::controller::{ConfigError, Controller, ControllerConfig, ControllerError};
 
 #[path = "common/jitter.rs"]
 mod jitter;
@@ -14,8 +11,11 @@ mod jitter;
 mod moving_block;
 #[path = "common/opt_in.rs"]
 mod opt_in;
+#[path = "common/stability_log.rs"]
+mod stability_log;
 use moving_block::moving_block;
 use opt_in::OptIn;
+use stability_log::stability_log;
 
 /// `{"<outer>": {"<inner>": value}}` parsed and validated (no dimension yet).
 fn config(json: &str) -> ControllerConfig {
@@ -197,29 +197,7 @@ fn block(opt_in: bool) -> OptIn {
 /// What a controlled run of the block did: every decision's step, outcome and the
 /// stability limit's numbers (λmax, refreshes, Lanczos products, bound proposals).
 fn run(c: &ControllerConfig, opt_in: bool, t_end: f64) -> Vec<String> {
-    let limits = standard_limits::<2>(c, Vector::<2>::zeros());
-    let mut controller = Controller::<2>::new(c.clone(), limits).unwrap();
-    let mut block = block(opt_in);
-    let mut log = Vec::new();
-    let mut record = |d: &Decision| {
-        let stability: Vec<String> = d
-            .limits
-            .iter()
-            .filter(|l| l.name == STABILITY)
-            .flat_map(|l| l.metrics.iter().map(|(k, v)| format!("{k}={v:e}")))
-            .collect();
-        log.push(format!(
-            "{:?} {:e} {}",
-            d.outcome,
-            d.dt,
-            stability.join(",")
-        ));
-    };
-    match controller.run_until(&mut block, t_end, &mut record) {
-        Ok(_) | Err(ControllerError::GrowthPersists { .. }) => {}
-        Err(e) => panic!("run failed: {e}"),
-    }
-    log
+    stability_log(c, &mut block(opt_in), t_end)
 }
 
 /// Each 2D/3D stability setting, set against a config where it is consulted: the mass and

@@ -6,10 +6,7 @@
 //! solver hands over no element bound and no sound-speed step (the generic path), except
 //! for the cost model, which weighs Lanczos against a bound the stepper supplies.
 
-use mpm_dt::controller::standard_limits;
-use mpm_dt::controller::{Controller, ControllerConfig, ControllerError, Decision};
-use mpm_dt::limits_nd::STABILITY;
-use mpm_dt::nd::Vector;
+use mpm_dt::controller::ControllerConfig;
 
 #[path = "common/jitter.rs"]
 mod jitter;
@@ -17,7 +14,10 @@ mod jitter;
 mod moving_block_3d;
 #[path = "common/opt_in.rs"]
 mod opt_in;
+#[path = "common/stability_log.rs"]
+mod stability_log;
 use opt_in::OptIn;
+use stability_log::stability_log;
 
 /// The 3D block of `tests/config_shared_fields_3d.rs`, without body force.
 fn block() -> mpm_dt::nd::SolverNd<3> {
@@ -27,32 +27,14 @@ fn block() -> mpm_dt::nd::SolverNd<3> {
 /// Every decision's outcome, step and the stability limit's numbers (λmax, refreshes,
 /// Lanczos products, bound proposals) of a controlled run of the block to `t_end`.
 fn run(c: &ControllerConfig, opt_in: bool, t_end: f64) -> Vec<String> {
-    let limits = standard_limits::<3>(c, Vector::<3>::zeros());
-    let mut controller = Controller::<3>::new(c.clone(), limits).unwrap();
-    let mut block = OptIn {
-        solver: block(),
-        on: opt_in,
-    };
-    let mut log = Vec::new();
-    let mut record = |d: &Decision| {
-        let stability: Vec<String> = d
-            .limits
-            .iter()
-            .filter(|l| l.name == STABILITY)
-            .flat_map(|l| l.metrics.iter().map(|(k, v)| format!("{k}={v:e}")))
-            .collect();
-        log.push(format!(
-            "{:?} {:e} {}",
-            d.outcome,
-            d.dt,
-            stability.join(",")
-        ));
-    };
-    match controller.run_until(&mut block, t_end, &mut record) {
-        Ok(_) | Err(ControllerError::GrowthPersists { .. }) => {}
-        Err(e) => panic!("run failed: {e}"),
-    }
-    log
+    stability_log(
+        c,
+        &mut OptIn {
+            solver: block(),
+            on: opt_in,
+        },
+        t_end,
+    )
 }
 
 /// `(changed, base)`: `stability_nd` objects, the list of `tests/config_dimensions.rs`
