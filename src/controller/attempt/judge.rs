@@ -22,6 +22,25 @@ pub(super) struct Verdicts {
     pub fatal: Option<ControllerError>,
 }
 
+impl Verdicts {
+    /// The stepper's error on the trial from `t`: a smaller step can cure a non-finite,
+    /// inverted or escaped trial and a `Failed` one (a rejection); anything else (an
+    /// invalid dt, no trial, a solver-specific failure) it cannot, and the run ends.
+    fn stepper_failed(&mut self, e: StepError, t: f64) {
+        match e {
+            StepError::NonFinite { .. }
+            | StepError::OutOfDomain { .. }
+            | StepError::Inverted { .. }
+            | StepError::Failed { .. } => {
+                self.cause = Some(RejectCause::NonFinite);
+                self.rejected_by = Some("stepper".to_string());
+                self.message = Some(e.to_string());
+            }
+            e => self.fatal = Some(ControllerError::Stepper { t, source: e }),
+        }
+    }
+}
+
 impl<const D: usize> Controller<D>
 where
     Dim<D>: Dimension,
@@ -37,19 +56,7 @@ where
     ) -> Verdicts {
         let mut v = Verdicts::default();
         match stepper.try_step(dt) {
-            // A smaller step can cure these; anything else (an invalid dt, no trial, a
-            // solver-specific failure) it cannot, and the run ends at once.
-            Err(
-                e @ (StepError::NonFinite { .. }
-                | StepError::OutOfDomain { .. }
-                | StepError::Inverted { .. }
-                | StepError::Failed { .. }),
-            ) => {
-                v.cause = Some(RejectCause::NonFinite);
-                v.rejected_by = Some("stepper".to_string());
-                v.message = Some(e.to_string());
-            }
-            Err(e) => v.fatal = Some(ControllerError::Stepper { t, source: e }),
+            Err(e) => v.stepper_failed(e, t),
             Ok(()) => self.judge_state(stepper, dt, t, records, &mut v),
         }
         v
@@ -64,22 +71,11 @@ where
         records: &mut [LimitRecord],
         v: &mut Verdicts,
     ) {
-        if let Err((trial, e)) = self.load_to_judge(stepper, dt) {
-            match (trial, &e) {
-                (
-                    true,
-                    StepError::NonFinite { .. }
-                    | StepError::OutOfDomain { .. }
-                    | StepError::Inverted { .. }
-                    | StepError::Failed { .. },
-                ) => {
-                    v.cause = Some(RejectCause::NonFinite);
-                    v.rejected_by = Some("stepper".to_string());
-                    v.message = Some(e.to_string());
-                }
-                _ => v.fatal = Some(ControllerError::Stepper { t, source: e }),
-            }
-            return;
+        match self.load_to_judge(stepper, dt) {
+            // The trial's arrays: its failure is the trial's, as from `try_step`.
+            Err((true, e)) => return v.stepper_failed(e, t),
+            Err((false, e)) => return v.fatal = Some(ControllerError::Stepper { t, source: e }),
+            Ok(()) => {}
         }
         let before = stepper.view();
         let Some(after) = stepper.trial_view() else {
