@@ -139,6 +139,33 @@ where
         }
     }
 
+    /// `α` as lowered after growth, for a checkpoint (the rest of the limit is its config).
+    fn save_state(&self) -> Option<serde_json::Value> {
+        Some(serde_json::json!({ "alpha": self.config.alpha }))
+    }
+
+    /// Restores `α`; one that is not in `(0, the configured α]` is a
+    /// [`LimitError::Restore`].
+    fn restore_state(&mut self, state: &serde_json::Value) -> Result<(), LimitError> {
+        let alpha = state["alpha"]
+            .as_f64()
+            .filter(|&a| a > 0.0 && a <= self.config.alpha);
+        match alpha {
+            Some(a) => {
+                self.config.alpha = a;
+                Ok(())
+            }
+            None => Err(LimitError::Restore {
+                limit: SOUND_SPEED.to_string(),
+                source: <serde_json::Error as serde::de::Error>::custom(format!(
+                    "alpha: {state} holds no number in (0, {}]",
+                    self.config.alpha
+                ))
+                .into(),
+            }),
+        }
+    }
+
     /// Only a proposal reads the arrays, and only where the view's summary carries no
     /// finite speed-of-sound step.
     fn reads_arrays(&self, call: crate::limit::LimitCall, state: &ViewOf<'_, D>) -> bool {

@@ -228,6 +228,17 @@ where
 
     fn growth_rejected(&mut self) {}
 
+    /// The energy history and the kept moduli, for a checkpoint: restored, the monitor
+    /// judges the next trials bit for bit as the run that went on.
+    fn save_state(&self) -> Option<serde_json::Value> {
+        serde_json::to_value((&self.history, &self.reference_moduli)).ok()
+    }
+
+    fn restore_state(&mut self, state: &serde_json::Value) -> Result<(), serde_json::Error> {
+        (self.history, self.reference_moduli) = serde_json::from_value(state.clone())?;
+        Ok(())
+    }
+
     fn memory_bytes(&self) -> usize {
         self.reference_moduli.capacity() * std::mem::size_of::<(f64, f64)>()
     }

@@ -134,7 +134,7 @@ pub(crate) fn view_supplies_bound<const D: usize>(view: &ViewNd<'_, D>) -> bool 
 }
 
 /// State of the policy (module docs).
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct BoundTracking {
     /// Whether proposals use the element bound.
     pub active: bool,

@@ -81,6 +81,7 @@
 //! the guard that catches all three: it rejects a step whose energy grows and lowers this
 //! limit's safety for the rest of the run ([`StepLimit::scale_safety`]).
 
+mod checkpoint;
 mod full_map_gain;
 mod guard;
 mod guard_scan;
@@ -468,6 +469,16 @@ where
 
     fn set_reduce(&mut self, reduce: Rc<dyn Reduce>) {
         self.reduce = reduce;
+    }
+
+    /// The tracked `λmax`, its warm start, the guard's references and the safety
+    /// (`checkpoint` module).
+    fn save_state(&self) -> Option<serde_json::Value> {
+        self.saved()
+    }
+
+    fn restore_state(&mut self, state: &serde_json::Value) -> Result<(), LimitError> {
+        self.restore(state)
     }
 
     fn set_threads(&mut self, pool: Option<std::sync::Arc<rayon::ThreadPool>>) {

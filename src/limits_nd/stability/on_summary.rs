@@ -34,7 +34,7 @@ use crate::nd::ViewNd;
 pub const SUMMARY_CHECK_EVERY: u32 = 8;
 
 /// What the proposals on summary-only views carry from the last full check.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, serde::Serialize, serde::Deserialize)]
 pub(crate) struct OnSummary {
     /// The guard's factor `r ≥ 1` at the last check (moduli and diagonal growth).
     growth: f64,
