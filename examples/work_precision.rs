@@ -4,8 +4,12 @@
 //! ```text
 //! cargo run --release --example work_precision -- (--scenario FILE | --mpm88 jelly|fluid)
 //!     [--json] [--plot FILE.svg] [--alpha A,B,...] [--tol T,U,...] [--reference-alpha A]
-//!     [--repeat N]
+//!     [--repeat N] [--t-end T]
 //! ```
+//!
+//! `--t-end` runs the scene to `T` instead of its own end time (a horizon where the
+//! converged reference exists: before a splash or a separation makes the end state depend
+//! on every step).
 //!
 //! `--scenario` takes a scenario of any dimension (reference solvers); `--mpm88` runs
 //! taichi's mpm88 jelly or fluid on the MLS-MPM solver of the `mls_mpm` example, whose
@@ -74,7 +78,7 @@ use std::process::ExitCode;
 
 const USAGE: &str =
     "usage: work_precision (--scenario FILE | --mpm88 jelly|fluid) [--json] [--plot FILE.svg] \
-[--alpha A,B,...] [--tol T,U,...] [--reference-alpha A] [--repeat N]";
+[--alpha A,B,...] [--tol T,U,...] [--reference-alpha A] [--repeat N] [--t-end T]";
 
 /// Command-line options (module docs).
 struct Args {
@@ -85,6 +89,8 @@ struct Args {
     tols: Vec<f64>,
     reference_alpha: f64,
     repeat: usize,
+    /// Runs to this time instead of the scene's own end time.
+    t_end: Option<f64>,
 }
 
 fn list(name: &str, v: Option<String>) -> Result<Vec<f64>, String> {
@@ -106,6 +112,7 @@ fn parse_args() -> Result<Args, String> {
         tols: vec![0.01, 0.003, 0.001, 3e-4, 1e-4, 3e-5, 1e-5],
         reference_alpha: 0.025,
         repeat: 3,
+        t_end: None,
     };
     let mut it = std::env::args().skip(1);
     while let Some(arg) = it.next() {
@@ -128,6 +135,12 @@ fn parse_args() -> Result<Args, String> {
                 }
             }
             "--repeat" => a.repeat = repeats::parse_repeat(it.next())?,
+            "--t-end" => {
+                a.t_end = match list("--t-end", it.next())?.as_slice() {
+                    [t] => Some(*t),
+                    _ => return Err("--t-end: one positive number".into()),
+                }
+            }
             other => return Err(format!("unknown argument {other}")),
         }
     }
@@ -157,7 +170,10 @@ fn main() -> ExitCode {
     };
     let load_before = load();
     let scene = match scene::Scene::open(&args.scenario) {
-        Ok(s) => s,
+        Ok(s) => match args.t_end {
+            Some(t) => s.until(t),
+            None => s,
+        },
         Err(e) => {
             eprintln!("error: {e}");
             return ExitCode::from(1);

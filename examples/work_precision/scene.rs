@@ -124,6 +124,14 @@ impl Scene {
         }
     }
 
+    /// The same scene run to `t_end` instead of its own end time (the length scale
+    /// `U·t_end` follows).
+    pub fn until(mut self, t_end: f64) -> Self {
+        self.scales.length = self.scales.velocity * t_end;
+        self.t_end = t_end;
+        self
+    }
+
     /// Runs the scene under `policy` to its end.
     pub fn run(&self, policy: Policy) -> Result<EndState, String> {
         match &self.kind {

@@ -35,6 +35,7 @@
 //! [`crate::limits_nd::TemporalErrorNd<D>`] is `TemporalError<D>`.
 
 use super::deferral::{self, Deferral, DeferredTrial, Scheduled};
+use super::non_smooth::NonSmooth;
 use super::{TemporalErrorConfig, TEMPORAL_ERROR};
 use crate::dimension::{Dim, Dimension, StateView, ViewOf};
 use crate::limit::{
@@ -187,6 +188,8 @@ where
     deferred: Option<DeferredTrial>,
     /// The controller's threads, for the estimator's passes.
     pool: Option<std::sync::Arc<rayon::ThreadPool>>,
+    /// Parts of the error found not to vanish with the step ([`super::non_smooth`]).
+    non_smooth: NonSmooth,
 }
 
 impl<const D: usize> TemporalError<D>
@@ -203,6 +206,7 @@ where
             spare: None,
             deferred: None,
             pool: None,
+            non_smooth: NonSmooth::default(),
         }
     }
 
@@ -354,12 +358,17 @@ where
             });
             return Ok(DeferredTrial::judgement(predicted));
         }
-        let judged = self.judge_trial(before, after, dt)?;
+        let mut judged = self.judge_trial(before, after, dt)?;
+        judged.estimate = self.non_smooth.judge(before.time(), dt, &judged.estimate);
         let e = judged.estimate;
         if let Some(old) = self.judged.replace(judged).and_then(|j| j.rates) {
             self.spare = Some(old);
         }
-        Ok(judgement(&e))
+        let mut judgement = judgement(&e);
+        if let Some(parts) = self.non_smooth.metric() {
+            judgement.metrics.insert("dsm_excluded".to_string(), parts);
+        }
+        Ok(judgement)
     }
 
     /// Where the estimator follows the schedule ([`TemporalEstimator::ON_DEMAND`], 2D/3D): a
@@ -444,16 +453,32 @@ where
         self.pool = pool;
     }
 
+    /// The history of rates; with the excluded parts ([`super::non_smooth`]) beside it
+    /// as `{"history", "non_smooth"}` where a part is excluded.
     fn save_state(&self) -> Option<serde_json::Value> {
-        serde_json::to_value(&self.history).ok()
+        match self.non_smooth == NonSmooth::default() {
+            true => serde_json::to_value(&self.history).ok(),
+            false => Some(serde_json::json!({
+                "history": serde_json::to_value(&self.history).ok()?,
+                "non_smooth": serde_json::to_value(self.non_smooth).ok()?,
+            })),
+        }
     }
 
     fn restore_state(&mut self, state: &serde_json::Value) -> Result<(), LimitError> {
-        let history: Option<HistoryOf<D>> =
-            serde_json::from_value(state.clone()).map_err(|e| LimitError::Restore {
-                limit: TEMPORAL_ERROR.to_string(),
-                source: e.into(),
-            })?;
+        let error = |e: serde_json::Error| LimitError::Restore {
+            limit: TEMPORAL_ERROR.to_string(),
+            source: e.into(),
+        };
+        let (state, non_smooth) = match state.get("non_smooth") {
+            Some(n) => (
+                &state["history"],
+                serde_json::from_value(n.clone()).map_err(error)?,
+            ),
+            None => (state, NonSmooth::default()),
+        };
+        let history: Option<HistoryOf<D>> = serde_json::from_value(state.clone()).map_err(error)?;
+        self.non_smooth = non_smooth;
         if history
             .as_ref()
             .is_some_and(|h| !EstimatorOf::<D>::consistent(h))
