@@ -136,6 +136,7 @@ impl Judgement {
 /// | `stability` (2D/3D) | `bound_proposals`, `calibrated_proposals` | proposals made on the element bound, and on the calibrated bound, since the start |
 /// | `stability` (2D/3D, APIC) | `transfer_gain` | `1 + p` of [`crate::limits_nd::transfer`] |
 /// | `temporal_error` | `dsm_v`, `dsm_sigma`, `dsm_particles` | the velocity and stress parts of `dsm` (eqs 20–30) and the particles in the norm |
+/// | `temporal_error` | `dsm_excluded` | the parts left out of `dsm` because they did not fall with the step (1 velocity, 2 stress, 3 both; [`crate::temporal::non_smooth`]) |
 /// | `growth` (1D) | `growth_indicator`, `growth_ratio` | the monitor's indicator of the trial and, on a detection, the last window maximum over the first |
 /// | `growth` (2D/3D) | `energy` | the watched energy `E` of the trial ([`crate::growth::nd`]) |
 /// | any, after a growth detection | `safety_scale` | the factor every limit's proposal is multiplied by for the rest of the run |
