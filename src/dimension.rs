@@ -71,6 +71,12 @@ pub trait StateView {
     fn holds_arrays(&self) -> bool {
         true
     }
+
+    /// Whether the view holds at least its particle arrays (a 2D/3D view
+    /// [`ViewNd::without_nodal`], or any view that [`Self::holds_arrays`]).
+    fn holds_particles(&self) -> bool {
+        self.holds_arrays()
+    }
 }
 
 impl StateView for View<'_> {
@@ -122,6 +128,10 @@ impl<const D: usize> StateView for ViewNd<'_, D> {
 
     fn holds_arrays(&self) -> bool {
         ViewNd::holds_arrays(self)
+    }
+
+    fn holds_particles(&self) -> bool {
+        ViewNd::holds_particles(self)
     }
 
     fn first_nonfinite(&self) -> Option<(&'static str, usize, f64)> {

@@ -264,6 +264,18 @@ where
         true
     }
 
+    /// Where `call` reads arrays ([`Self::reads_arrays`]), whether it reads the views'
+    /// weights and nodal fields too (`false`: the particle arrays alone, so that a stepper
+    /// handing over on demand may skip forming them, [`crate::Stepper::load_particles`]).
+    /// `state` is as for [`Self::reads_arrays`], or the trial's view holding its particle
+    /// arrays: the controller asks again once they are loaded, and loads the rest where
+    /// the answer turns `true`. Default `true`; a `false` must be kept as for
+    /// [`Self::reads_arrays`].
+    fn reads_nodal(&self, call: LimitCall, state: &ViewOf<'_, D>) -> bool {
+        let _ = (call, state);
+        true
+    }
+
     /// Whether this limit reads [`crate::PassSummary::element_bound`] (default `false`); the
     /// controller then asks its stepper to provide it
     /// ([`crate::Stepper::provide_element_bound`]).

@@ -208,6 +208,14 @@ where
         Ok(())
     }
 
+    /// [`Self::load_arrays`] for a call that reads the particle arrays alone
+    /// ([`crate::StepLimit::reads_nodal`]): a stepper may then skip forming the state's
+    /// weights and nodal fields, its view being [`crate::nd::ViewNd::without_nodal`] until
+    /// [`Self::load_arrays`]. The default loads everything.
+    fn load_particles(&mut self, trial: bool) -> Result<(), StepError> {
+        self.load_arrays(trial)
+    }
+
     /// Asks the stepper to attach a [`PassSummary`] ([`View::summary`]; in 2D/3D a
     /// [`crate::nd::SummaryNd`], [`crate::nd::ViewNd::summary`]) to the states its passes
     /// compute from now on (`true`) or to stop (`false`); returns whether it does. The

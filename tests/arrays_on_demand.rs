@@ -126,6 +126,35 @@ fn with_the_bound_in_the_summary_most_steps_read_no_arrays() {
     );
 }
 
+/// A stepper that loads a state's particle arrays alone where they suffice (the temporal
+/// error's checks against their history read no weights or nodal fields) takes the same
+/// steps bit for bit, with fewer full loads (a state whose particles were loaded and whose
+/// nodal fields a later call reads is read twice).
+#[test]
+fn loading_the_particles_alone_takes_the_same_steps() {
+    let mut full = block(true);
+    let (full_d, r) = run(&mut full, ControllerConfig::default(), 12.0);
+    r.unwrap();
+    let mut alone = block(true);
+    alone.particles_alone = true;
+    let (alone_d, r) = run(&mut alone, ControllerConfig::default(), 12.0);
+    r.unwrap();
+    let (a, b) = (accepted(&full_d), accepted(&alone_d));
+    assert_eq!(a.len(), b.len());
+    for (x, y) in a.iter().zip(&b) {
+        assert_eq!(x.to_bits(), y.to_bits(), "{x} against {y}");
+    }
+    eprintln!(
+        "{} steps: {} full loads; particles alone {} + {} full",
+        a.len(),
+        full.loads,
+        alone.particle_loads,
+        alone.loads
+    );
+    assert!(alone.particle_loads > 0 && alone.loads < full.loads);
+    assert!(alone.loads + alone.particle_loads >= full.loads);
+}
+
 /// A trial whose summary is not finite has its arrays loaded; the stepper's read names
 /// the particle, the trial is rejected as non-finite and retried with a smaller step.
 #[test]

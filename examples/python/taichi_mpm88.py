@@ -19,16 +19,16 @@ fixed step 2e-4 s.
   (non-finite values, a particle past a wall, J <= 0, or kinetic plus elastic energy above
   10x what the block has to give: its initial kinetic plus potential energy) by a 1 % scan
   from mpm88's step and a bisection;
-* the stepper hands over, with the arrays, a ``"summary"`` its export kernel computes
-  (energies, the element bound of MLS-MPM's gradients, the speed-of-sound step), so that
-  the limits make no passes of their own for them; ``--no-summary`` hands over the arrays
-  only;
-* by default the stepper hands over on demand: after every trial the summary alone (a
-  kernel of reductions), the arrays only when the controller asks for them (a lambda_max
-  refresh, a temporal-error check, the door check every 64 steps); ``--eager`` hands over
-  the arrays with every trial;
-* ``--handover N`` times one substep, the state export and the package's read of it at N
-  particles (the hand-over's cost per controlled step) and exits.
+* the stepper hands over, with the arrays, a ``"summary"`` its summary pass computes
+  (energies, the element bound of MLS-MPM's gradients, the speed-of-sound step; one kernel
+  a state, run serially on one CPU thread), so that the limits make no passes of their
+  own for them; ``--no-summary`` hands over the arrays only;
+* by default the stepper hands over on demand: after every trial the summary alone, the
+  arrays only when the controller asks for them (a lambda_max refresh, a temporal-error
+  check, the door check every 64 steps); ``--eager`` hands over the arrays with every
+  trial;
+* ``--handover N`` times one substep, the summary pass, the state export and the
+  package's read of it at N particles (the hand-over's cost per controlled step) and exits.
 """
 
 import argparse
@@ -124,8 +124,10 @@ def handover(n: int, jelly: bool, reps: int = 20) -> None:
     def substep() -> None:
         sim.substep(sim.states[0], sim.states[1], MPM88_DT)
         ti.sync()
+    trial = sim.states[1]
     for name, f in (("substep", substep),
-                    ("state(True) export", lambda: sim.state(True)),
+                    ("summary pass (`summarize`)", lambda: sim.summarize(trial, trial.totals)),
+                    ("state(True) export (the arrays)", lambda: sim.state(True)),
                     ("mpm_dt read (arrays, weights, nodal fields)", lambda: mpm_dt.read_state(s))):
         start = time.perf_counter()
         for _ in range(reps):

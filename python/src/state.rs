@@ -323,6 +323,20 @@ impl<const D: usize> StateNd<D> {
         t: f64,
         step: u64,
     ) -> Result<(), Fault> {
+        self.read_particles(dict, t, step)?;
+        self.form_nodal(gravity)?;
+        self.summary = crate::summary::read_summary(dict)?;
+        Ok(())
+    }
+
+    /// The particle half of [`Self::read`]: the arrays, moduli and densities (a view of
+    /// them alone is [`mpm_dt::nd::ViewNd::without_nodal`]; its summary is not read).
+    pub fn read_particles(
+        &mut self,
+        dict: &Bound<'_, PyDict>,
+        t: f64,
+        step: u64,
+    ) -> Result<(), Fault> {
         let py = dict.py();
         self.t = t;
         self.step = step;
@@ -374,6 +388,12 @@ impl<const D: usize> StateNd<D> {
             // Read by GIMP only.
             self.domain.resize(n, Vector::<D>::zeros());
         }
+        Ok(())
+    }
+
+    /// The rest of [`Self::read`]: the weights (a particle whose stencil leaves the grid
+    /// is refused) and the nodal fields under body force `gravity`.
+    pub fn form_nodal(&mut self, gravity: &Vector<D>) -> Result<(), Fault> {
         compute_weights(
             &self.grid,
             self.shape,
@@ -403,7 +423,6 @@ impl<const D: usize> StateNd<D> {
             gravity,
             INACTIVE_MASS_RATIO * min_mass,
         );
-        self.summary = crate::summary::read_summary(dict)?;
         Ok(())
     }
 

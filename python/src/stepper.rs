@@ -44,6 +44,10 @@ pub struct PyStepper<'py, const D: usize> {
     /// [`Self::on_demand`]).
     committed_loaded: bool,
     trial_loaded: bool,
+    /// Whether their particle arrays are read without the weights and nodal fields
+    /// ([`Stepper::load_particles`]; the views are then `ViewNd::without_nodal`).
+    committed_particles: bool,
+    trial_particles: bool,
 }
 
 /// `obj.time()` as a float.
@@ -105,6 +109,8 @@ impl<'py, const D: usize> PyStepper<'py, D> {
             on_demand,
             committed_loaded: true,
             trial_loaded: false,
+            committed_particles: false,
+            trial_particles: false,
         })
     }
 
@@ -181,6 +187,7 @@ where
         let py = self.obj.py();
         let (t, step) = (self.committed.t, self.step);
         self.trial_loaded = false;
+        self.trial_particles = false;
         match self.obj.call_method1("try_step", (dt,)) {
             Err(e) if is_step_failed(py, &e) => {
                 return Err(StepError::Failed {
@@ -221,7 +228,9 @@ where
         self.step += 1;
         self.spare = Some(std::mem::replace(&mut self.committed, trial));
         self.committed_loaded = self.trial_loaded || !self.on_demand;
+        self.committed_particles = self.trial_particles;
         self.trial_loaded = false;
+        self.trial_particles = false;
         Ok(())
     }
 
@@ -230,24 +239,29 @@ where
             self.spare = Some(old);
         }
         self.trial_loaded = false;
+        self.trial_particles = false;
         if let Err(e) = self.obj.call_method0("reject") {
             let _ = self.fail(e);
         }
     }
 
     fn view(&self) -> ViewNd<'_, D> {
-        match self.committed_loaded {
-            true => self.committed.view(),
-            false => on_demand::summary_only(&self.committed),
+        match (self.committed_loaded, self.committed_particles) {
+            (true, _) => self.committed.view(),
+            (false, true) => self.committed.view().without_nodal(),
+            (false, false) => on_demand::summary_only(&self.committed),
         }
     }
 
     fn trial_view(&self) -> Option<ViewNd<'_, D>> {
         let trial = self.trial.as_ref()?;
-        Some(match self.trial_loaded || !self.on_demand {
-            true => trial.view(),
-            false => on_demand::summary_only(trial),
-        })
+        Some(
+            match (self.trial_loaded || !self.on_demand, self.trial_particles) {
+                (true, _) => trial.view(),
+                (false, true) => trial.view().without_nodal(),
+                (false, false) => on_demand::summary_only(trial),
+            },
+        )
     }
 
     fn provide_arrays_on_demand(&mut self, on: bool) -> bool {
@@ -256,8 +270,15 @@ where
 
     fn load_arrays(&mut self, trial: bool) -> Result<(), StepError> {
         match trial {
-            true => self.load_trial(),
-            false => self.load_committed(),
+            true => self.load_trial(true),
+            false => self.load_committed(true),
+        }
+    }
+
+    fn load_particles(&mut self, trial: bool) -> Result<(), StepError> {
+        match trial {
+            true => self.load_trial(false),
+            false => self.load_committed(false),
         }
     }
 }
@@ -270,11 +291,17 @@ where
     /// solver's `try_step(dt)`.
     fn read_trial(&mut self, dt: f64) -> Result<(), StepError> {
         let s = self.spare.take().unwrap_or_default();
-        self.read_trial_into(s, dt)
+        self.read_trial_into(s, dt, true)
     }
 
-    /// [`Self::read_trial`] into the storage `s`.
-    fn read_trial_into(&mut self, mut s: Box<StateNd<D>>, dt: f64) -> Result<(), StepError> {
+    /// [`Self::read_trial`] into the storage `s`: all of it (`full`) or the particle
+    /// arrays (`StateNd::read_particles`).
+    fn read_trial_into(
+        &mut self,
+        mut s: Box<StateNd<D>>,
+        dt: f64,
+        full: bool,
+    ) -> Result<(), StepError> {
         let py = self.obj.py();
         let (t, step) = (self.committed.t, self.step);
         let dict = match py_state(&self.obj, true) {
@@ -294,7 +321,11 @@ where
                 return Err(self.fail(e));
             }
         };
-        match s.read(&dict, &self.gravity, t + dt, step + 1) {
+        let read = match full {
+            true => s.read(&dict, &self.gravity, t + dt, step + 1),
+            false => s.read_particles(&dict, t + dt, step + 1),
+        };
+        match read {
             Ok(()) => {
                 self.trial = Some(s);
                 Ok(())

@@ -43,7 +43,7 @@ def test_short_run_under_the_controller(mpm88: Any, jelly: bool) -> None:
 
 
 def test_the_kernel_s_summary_takes_the_library_s_steps(mpm88: Any) -> None:
-    """The summary the export kernel computes (in float64, from the same values) is what the
+    """The summary the summary pass computes (in float64, from the exported values) is what the
     library computes from the arrays: the same steps with and without it."""
     runs = []
     for summary in (False, True):
@@ -63,7 +63,7 @@ def test_the_kernel_s_summary_takes_the_library_s_steps(mpm88: Any) -> None:
 
 
 def test_the_kernel_s_summary_is_the_arrays_totals(mpm88: Any) -> None:
-    """The export kernel's totals against numpy over the float64 arrays it wrote, on a
+    """The summary pass's totals against numpy over the float64 arrays the export wrote, on a
     deformed jelly (a few steps after a shear): energies, moment, bound and sound step."""
     sim = mpm88.Mpm88(jelly=True)
     mpm_dt.Controller(dim=2, config={}, gravity=(0.0, -9.8)).run_until(sim, 0.005)
@@ -87,7 +87,7 @@ def test_the_kernel_s_summary_is_the_arrays_totals(mpm88: Any) -> None:
 
 
 def test_the_kernel_s_tangent_moduli_are_the_library_s(mpm88: Any) -> None:
-    """The export kernel's fixed-corotated pair (a port of mpm_dt::tangent) against the
+    """The summary pass's fixed-corotated pair (a port of mpm_dt::tangent) against the
     package's own (``"material"``) on a jelly deformed by its impact, where the pair is
     above the rest moduli."""
     sim = mpm88.Mpm88(jelly=True)
@@ -104,8 +104,8 @@ def test_the_kernel_s_tangent_moduli_are_the_library_s(mpm88: Any) -> None:
 
 
 def test_on_demand_hands_over_the_export_s_totals_and_takes_the_eager_steps(mpm88: Any) -> None:
-    """The on-demand stepper's `summary(True)` (the `summarize` kernel) is the summary the
-    export kernel hands over with the arrays, and a run handing over on demand takes the
+    """The on-demand stepper's `summary(True)` (the `summarize` kernel) is the summary
+    `state(True)` hands over with the arrays, and a run handing over on demand takes the
     eager run's steps (to a few parts in a million: between its layout checks the
     stability limit carries the last check's moduli factor) reading the arrays on a
     fraction of the states."""

@@ -9,6 +9,17 @@
 //! call reads them ([`crate::StepLimit::reads_arrays`], asked with the trial's view) or the
 //! trial's summary is not finite (the scan then names the particle). A loaded state stays
 //! loaded: the stepper keeps it until it is replaced.
+//!
+//! Where every limit that reads arrays for a judgement or an acceptance reads the particle
+//! arrays alone ([`crate::StepLimit::reads_nodal`]: the temporal-error check against a
+//! history), the committed state's particles are loaded without its weights and nodal
+//! fields ([`crate::Stepper::load_particles`]; the rest of a read, at 8 192 particles in 2D
+//! about four fifths of it), the trial in full all the same: accepted, it is the committed
+//! state of the next proposals, which use its arrays where it holds them (the stability
+//! limit's guard and refreshes), so that the run's decisions are those of full loads. The
+//! limits are then asked again with the loaded trial, and the rest loaded where one of
+//! them turns. A state of particles alone is summary-only to every other call: the door
+//! check and the proposals load it in full where they read it.
 
 use super::{Controller, ControllerError};
 use crate::dimension::{Dim, Dimension, StateView, ViewOf};
@@ -38,17 +49,64 @@ where
                 || self.limits_read(LimitCall::Propose, view))
     }
 
-    /// Whether both states' arrays must be loaded before `call` on the trial `after`.
+    /// What of both states must be loaded before `call` on the trial `after`.
     pub(super) fn arrays_for_trial(
         &self,
         call: LimitCall,
         before: &ViewOf<'_, D>,
         after: &ViewOf<'_, D>,
-    ) -> bool {
-        (!before.holds_arrays() || !after.holds_arrays())
-            && ((matches!(call, LimitCall::Judge { .. }) && after.first_nonfinite().is_some())
-                || self.limits_read(call, after))
+    ) -> Need {
+        let nonfinite =
+            matches!(call, LimitCall::Judge { .. }) && after.first_nonfinite().is_some();
+        let reading = self.limits.iter().filter(|l| l.reads_arrays(call, after));
+        let (mut particles, mut full) = (false, nonfinite);
+        for l in reading {
+            particles = true;
+            full |= l.reads_nodal(call, after);
+        }
+        if full && (!before.holds_arrays() || !after.holds_arrays()) {
+            Need::Full
+        } else if particles && (!before.holds_particles() || !after.holds_particles()) {
+            Need::Particles
+        } else {
+            Need::Nothing
+        }
     }
+
+    /// Loads what both states need before `call` on the pending trial
+    /// ([`Self::arrays_for_trial`]): the committed state's particles first where they
+    /// suffice (the trial in full, module docs), then the rest where a limit asked again
+    /// with the loaded trial reads it. The error says whether the trial's loading failed
+    /// (`true`) or the committed state's (`false`).
+    fn load_for_trial(
+        &self,
+        stepper: &mut dyn Stepper<D>,
+        call: LimitCall,
+    ) -> Result<(), (bool, StepError)> {
+        for _ in 0..2 {
+            let need = match stepper.trial_view() {
+                Some(after) => self.arrays_for_trial(call, &stepper.view(), &after),
+                None => Need::Nothing,
+            };
+            if need == Need::Nothing {
+                break;
+            }
+            load(stepper, false, need == Need::Full).map_err(|e| (false, e))?;
+            load(stepper, true, true).map_err(|e| (true, e))?;
+        }
+        Ok(())
+    }
+}
+
+/// What of a state the next call reads ([`Controller::arrays_for_trial`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Need {
+    /// Nothing more than the view holds.
+    Nothing,
+    /// The particle arrays ([`crate::Stepper::load_particles`]).
+    Particles,
+    /// Everything ([`crate::Stepper::load_arrays`]).
+    Full,
 }
 
 impl<const D: usize> Controller<D>
@@ -80,17 +138,8 @@ where
         if !self.arrays_on_demand {
             return Ok(());
         }
-        let need = match stepper.trial_view() {
-            Some(after) => {
-                self.arrays_for_trial(LimitCall::Accepted { dt }, &stepper.view(), &after)
-            }
-            None => false,
-        };
-        if need {
-            load_committed(stepper, t)?;
-            load(stepper, true).map_err(|source| ControllerError::Stepper { t, source })?;
-        }
-        Ok(())
+        self.load_for_trial(stepper, LimitCall::Accepted { dt })
+            .map_err(|(_, source)| ControllerError::Stepper { t, source })
     }
 
     /// Loads both states' arrays before the judgement of the trial of `dt`, where a limit
@@ -105,36 +154,49 @@ where
         if !self.arrays_on_demand {
             return Ok(());
         }
-        let need = match stepper.trial_view() {
-            Some(after) => self.arrays_for_trial(LimitCall::Judge { dt }, &stepper.view(), &after),
-            None => false,
-        };
-        if need {
-            load(stepper, false).map_err(|e| (false, e))?;
-            load(stepper, true).map_err(|e| (true, e))?;
-        }
-        Ok(())
+        self.load_for_trial(stepper, LimitCall::Judge { dt })
     }
 }
 
-/// Loads the committed state's arrays (`trial == false`) or the trial's, and checks that
-/// the next view holds them: a stepper that leaves it summary-only ends the run.
+/// Loads the committed state's arrays (`trial == false`) or the trial's — all of them
+/// (`full`) or the particle arrays — and checks that the next view holds them: a stepper
+/// that leaves it without ends the run.
 pub(super) fn load<const D: usize>(
     stepper: &mut dyn Stepper<D>,
     trial: bool,
+    full: bool,
 ) -> Result<(), StepError>
 where
     Dim<D>: Dimension,
 {
-    stepper.load_arrays(trial)?;
-    let holds = match trial {
-        false => stepper.view().holds_arrays(),
-        true => stepper.trial_view().is_some_and(|v| v.holds_arrays()),
+    let holds = |v: &ViewOf<'_, D>| match full {
+        true => v.holds_arrays(),
+        false => v.holds_particles(),
     };
-    match holds {
+    let loaded = match trial {
+        false => holds(&stepper.view()),
+        true => stepper.trial_view().is_some_and(|v| holds(&v)),
+    };
+    if loaded {
+        return Ok(());
+    }
+    match full {
+        true => stepper.load_arrays(trial)?,
+        false => stepper.load_particles(trial)?,
+    }
+    let loaded = match trial {
+        false => holds(&stepper.view()),
+        true => stepper.trial_view().is_some_and(|v| holds(&v)),
+    };
+    match loaded {
         true => Ok(()),
         false => Err(StepError::Other(format!(
-            "load_arrays({trial}) left the {} view without its arrays",
+            "{}({trial}) left the {} view without its arrays",
+            if full {
+                "load_arrays"
+            } else {
+                "load_particles"
+            },
             if trial { "trial" } else { "committed" }
         ))),
     }
@@ -148,5 +210,5 @@ pub(super) fn load_committed<const D: usize>(
 where
     Dim<D>: Dimension,
 {
-    load(stepper, false).map_err(|source| ControllerError::Stepper { t, source })
+    load(stepper, false, true).map_err(|source| ControllerError::Stepper { t, source })
 }

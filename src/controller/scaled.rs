@@ -78,6 +78,10 @@ where
         self.inner.reads_arrays(call, state)
     }
 
+    fn reads_nodal(&self, call: crate::limit::LimitCall, state: &ViewOf<'_, D>) -> bool {
+        self.inner.reads_nodal(call, state)
+    }
+
     fn reads_element_bound(&self) -> bool {
         self.inner.reads_element_bound()
     }

@@ -144,24 +144,31 @@ impl<const D: usize> RateSweeps<D> {
         matches!((before.split, after.split), (Some(b), Some(a)) if a.particle_id != b.particle_id)
     }
 
-    /// Checks the slices the estimate reads.
-    fn check(view: &ViewNd<'_, D>) -> Result<(), LimitError> {
+    /// Checks the slices the estimate reads: the weights and nodal fields too where it
+    /// reads them (`nodal`: no usable history, the first step's nodal rates).
+    fn check(view: &ViewNd<'_, D>, nodal: bool) -> Result<(), LimitError> {
         let n = view.n_particles();
         let w = view.weights;
         let nodes = view.node_mass.len();
+        if nodal && !view.holds_arrays() {
+            return Err(other(
+                "the first check reads the nodal fields: a view without them".to_string(),
+            ));
+        }
         let ok = [
             view.v.len(),
             view.sigma.len(),
             view.density.len(),
             view.lame_lambda.len(),
             view.lame_mu.len(),
-            w.n_particles(),
         ]
         .iter()
         .all(|&len| len == n)
-            && view.node_velocity.len() == nodes
-            && view.node_acceleration.len() == nodes
-            && w.n_nodes() == nodes
+            && (!nodal
+                || (w.n_particles() == n
+                    && view.node_velocity.len() == nodes
+                    && view.node_acceleration.len() == nodes
+                    && w.n_nodes() == nodes))
             && view.split.is_none_or(|s| s.particle_id.len() == n);
         if ok {
             Ok(())
@@ -216,6 +223,13 @@ where
     /// When the trial keeps its particles in their committed order (on a grid-decomposed
     /// run a trial that moves particles between processes is checked, so that the history
     /// keeps following that order).
+    /// A single-process history as consistent and, where the trial's particles are
+    /// loaded, as long as they are many ([`Self::usable_history`] decides at the estimate).
+    fn particles_suffice(history: &History<D>, state: &ViewNd<'_, D>) -> bool {
+        let n = state.n_particles();
+        history.consistent() && history.ids.is_empty() && (n == 0 || history.accel.len() == n)
+    }
+
     fn deferrable(_history: &History<D>, before: &ViewNd<'_, D>, after: &ViewNd<'_, D>) -> bool {
         match (before.split, after.split) {
             (None, None) => true,
@@ -239,13 +253,13 @@ where
         mut out: Option<&mut History<D>>,
     ) -> Result<Estimate, LimitError> {
         Self::supported(shared.config)?;
-        Self::check(before)?;
-        Self::check(after)?;
+        let history = Self::usable_history(shared.history, before);
+        Self::check(before, history.is_none())?;
+        Self::check(after, history.is_none())?;
         let n = after.n_particles();
         // Partners by index, or by run-wide id where particles changed process.
         let (split, moved) = self.partners(before, after)?;
         let before_ids = before.split.map(|b| b.particle_id);
-        let history = Self::usable_history(shared.history, before);
         // Every entry is written by the first sweep (the arrays keep their length).
         if let Some(out) = out.as_deref_mut() {
             Self::prepare(out, n, split);

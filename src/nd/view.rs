@@ -186,13 +186,33 @@ impl<'a, const D: usize> ViewNd<'a, D> {
         }
     }
 
-    /// Whether the view holds its arrays: `false` only for a [`Self::summary_only`] view
-    /// (a summary, no particle and no nodal arrays, on a grid with nodes).
+    /// This view without its weights and nodal fields (all empty), its particle arrays and
+    /// summary kept: what a stepper handing over on demand shows after
+    /// [`crate::Stepper::load_particles`]. For the library it is summary-only
+    /// ([`Self::holds_arrays`] is `false`) except to a limit that declares that its call
+    /// reads the particle arrays alone ([`crate::StepLimit::reads_nodal`]).
+    pub fn without_nodal(self) -> Self {
+        Self {
+            weights: ViewWeightsNd::formed(self.grid, super::ShapeNd::Linear, &[], &[]),
+            node_mass: &[],
+            node_velocity: &[],
+            node_acceleration: &[],
+            node_active: &[],
+            ..self
+        }
+    }
+
+    /// Whether the view holds its arrays: `false` for a [`Self::summary_only`] view (a
+    /// summary, no particle and no nodal arrays, on a grid with nodes) and for one
+    /// [`Self::without_nodal`] (a summary and the particle arrays only).
     pub fn holds_arrays(&self) -> bool {
-        !(self.summary.is_some()
-            && self.x.is_empty()
-            && self.node_mass.is_empty()
-            && self.grid.n_nodes() > 0)
+        !(self.summary.is_some() && self.node_mass.is_empty() && self.grid.n_nodes() > 0)
+    }
+
+    /// Whether the view holds its particle arrays: [`Self::holds_arrays`], or a view
+    /// [`Self::without_nodal`] of at least one particle.
+    pub fn holds_particles(&self) -> bool {
+        self.holds_arrays() || !self.x.is_empty()
     }
 }
 

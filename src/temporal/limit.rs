@@ -36,6 +36,8 @@
 
 use super::deferral::{self, Deferral, DeferredTrial, Scheduled};
 use super::non_smooth::NonSmooth;
+
+mod checkpoint;
 use super::{TemporalErrorConfig, TEMPORAL_ERROR};
 use crate::dimension::{Dim, Dimension, StateView, ViewOf};
 use crate::limit::{
@@ -87,6 +89,15 @@ pub trait TemporalEstimator<T: Dimension>: Clone + std::fmt::Debug + Default {
     /// Whether the limit follows the schedule in [`StepLimit::reads_arrays`] (else it always
     /// reads them, the trait's default).
     const ON_DEMAND: bool;
+
+    /// Whether an estimate against `history` reads the particle arrays alone (else the
+    /// weights and nodal fields too, as the first step's nodal rates do), `state` being
+    /// the trial's view, summary-only or holding its particles
+    /// ([`StepLimit::reads_nodal`]). Default `false`.
+    fn particles_suffice(history: &Self::History, state: &T::View<'_>) -> bool {
+        let _ = (history, state);
+        false
+    }
 
     /// Refuses settings the estimator cannot honour (default: none), before a proposal and
     /// a deferred judgement.
@@ -391,6 +402,17 @@ where
         }
     }
 
+    /// Against a history that describes the particles, an estimate reads their arrays
+    /// alone ([`TemporalEstimator::particles_suffice`]: the rates of the last checked
+    /// step stand for the nodal ones); the first check reads the nodal fields too.
+    fn reads_nodal(&self, _call: LimitCall, state: &ViewOf<'_, D>) -> bool {
+        !EstimatorOf::<D>::ON_DEMAND
+            || !self
+                .history
+                .as_ref()
+                .is_some_and(|h| EstimatorOf::<D>::particles_suffice(h, state))
+    }
+
     fn accepted(&mut self, before: &ViewOf<'_, D>, after: &ViewOf<'_, D>, dt: f64) {
         if deferral::spend_deferred(&mut self.history, self.deferred.take(), before.time(), dt) {
             return;
@@ -453,43 +475,12 @@ where
         self.pool = pool;
     }
 
-    /// The history of rates; with the excluded parts ([`super::non_smooth`]) beside it
-    /// as `{"history", "non_smooth"}` where a part is excluded.
+    /// The history of rates and the parts left out of the norm (`checkpoint` module).
     fn save_state(&self) -> Option<serde_json::Value> {
-        match self.non_smooth == NonSmooth::default() {
-            true => serde_json::to_value(&self.history).ok(),
-            false => Some(serde_json::json!({
-                "history": serde_json::to_value(&self.history).ok()?,
-                "non_smooth": serde_json::to_value(self.non_smooth).ok()?,
-            })),
-        }
+        self.saved()
     }
 
     fn restore_state(&mut self, state: &serde_json::Value) -> Result<(), LimitError> {
-        let error = |e: serde_json::Error| LimitError::Restore {
-            limit: TEMPORAL_ERROR.to_string(),
-            source: e.into(),
-        };
-        let (state, non_smooth) = match state.get("non_smooth") {
-            Some(n) => (
-                &state["history"],
-                serde_json::from_value(n.clone()).map_err(error)?,
-            ),
-            None => (state, NonSmooth::default()),
-        };
-        let history: Option<HistoryOf<D>> = serde_json::from_value(state.clone()).map_err(error)?;
-        self.non_smooth = non_smooth;
-        if history
-            .as_ref()
-            .is_some_and(|h| !EstimatorOf::<D>::consistent(h))
-        {
-            return Err(Self::other(EstimatorOf::<D>::INCONSISTENT.to_string()));
-        }
-        // A schedule saved under a larger `max_deferred` defers no more than this one.
-        self.history = history.map(|mut h| {
-            h.schedule().clamp(self.config.max_deferred);
-            h
-        });
-        Ok(())
+        self.restore(state)
     }
 }

@@ -2,7 +2,10 @@
 //! its pass totals after every trial and its arrays (`state(trial)`) only when the
 //! controller asks for them (`mpm_dt::Stepper::provide_arrays_on_demand`: a λmax refresh,
 //! the layout guard's cadence, a temporal-error check, the door check every 64 steps, a
-//! trial whose summary is not finite).
+//! trial whose summary is not finite). For a call that reads the particle arrays alone (a
+//! temporal-error check against its history, `mpm_dt::Stepper::load_particles`) only they
+//! are read: not the weights and nodal fields, and so not the check that every
+//! particle's stencil is on the grid.
 //!
 //! `summary(trial)` returns the dict of a state's `"summary"` (`crate::summary`: the
 //! energies and first moment, and — for the saving — `"element_bound"` and
@@ -90,28 +93,30 @@ where
         }
     }
 
-    /// Reads the pending trial's arrays (`state(True)`), keeping its time and summary.
-    pub(super) fn load_trial(&mut self) -> Result<(), StepError> {
-        if self.trial_loaded || !self.on_demand {
+    /// Reads the pending trial's arrays (`state(True)`): all of them (`full`) or the
+    /// particle arrays, keeping its time and summary.
+    pub(super) fn load_trial(&mut self, full: bool) -> Result<(), StepError> {
+        if self.trial_loaded || !self.on_demand || (self.trial_particles && !full) {
             return Ok(());
         }
         let Some(trial) = self.trial.take() else {
             return Err(StepError::NoTrial);
         };
         let (t, summary) = (trial.t, trial.summary);
-        self.read_trial_into(trial, t - self.committed.t)?;
+        self.read_trial_into(trial, t - self.committed.t, full)?;
         if let Some(s) = self.trial.as_mut() {
             s.t = t;
             s.summary = summary;
         }
-        self.trial_loaded = true;
+        self.trial_loaded = full;
+        self.trial_particles = true;
         Ok(())
     }
 
-    /// Reads the committed state's arrays (`state(False)`), keeping its time, step and
-    /// summary; a failure ends the run.
-    pub(super) fn load_committed(&mut self) -> Result<(), StepError> {
-        if self.committed_loaded {
+    /// Reads the committed state's arrays (`state(False)`): all of them (`full`) or the
+    /// particle arrays, keeping its time, step and summary; a failure ends the run.
+    pub(super) fn load_committed(&mut self, full: bool) -> Result<(), StepError> {
+        if self.committed_loaded || (self.committed_particles && !full) {
             return Ok(());
         }
         let py = self.obj.py();
@@ -121,10 +126,15 @@ where
             self.committed.step,
             self.committed.summary,
         );
-        match self.committed.read(&dict, &self.gravity, t, step) {
+        let read = match full {
+            true => self.committed.read(&dict, &self.gravity, t, step),
+            false => self.committed.read_particles(&dict, t, step),
+        };
+        match read {
             Ok(()) => {
                 self.committed.summary = summary;
-                self.committed_loaded = true;
+                self.committed_loaded = full;
+                self.committed_particles = true;
                 Ok(())
             }
             Err(f) => {
