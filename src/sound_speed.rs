@@ -83,9 +83,18 @@ pub trait SignalSpeeds {
 /// The speed-of-sound limit `dt ≤ α min_p min_a h_a/(c_p + |v_{p,a}|)` (module docs), for
 /// a run of any dimension: it implements [`StepLimit<D>`] for every `D` whose view
 /// implements [`SignalSpeeds`].
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct SoundSpeed {
     config: SoundSpeedConfig,
+    /// `α` as configured, before any [`StepLimit::scale_safety`].
+    configured_alpha: f64,
+}
+
+impl Default for SoundSpeed {
+    /// The limit with the default settings.
+    fn default() -> Self {
+        Self::unchecked(SoundSpeedConfig::default())
+    }
 }
 
 impl SoundSpeed {
@@ -97,12 +106,15 @@ impl SoundSpeed {
             config.alpha.is_finite() && config.alpha > 0.0,
             "positive and finite",
         )?;
-        Ok(Self { config })
+        Ok(Self::unchecked(config))
     }
 
     /// The limit without checking `config` (for builders whose caller validates it).
     pub(crate) fn unchecked(config: SoundSpeedConfig) -> Self {
-        Self { config }
+        Self {
+            config,
+            configured_alpha: config.alpha,
+        }
     }
 
     /// The settings (with `α` as lowered by [`StepLimit::scale_safety`], if it was).
@@ -149,7 +161,7 @@ where
     fn restore_state(&mut self, state: &serde_json::Value) -> Result<(), LimitError> {
         let alpha = state["alpha"]
             .as_f64()
-            .filter(|&a| a > 0.0 && a <= self.config.alpha);
+            .filter(|&a| a > 0.0 && a <= self.configured_alpha);
         match alpha {
             Some(a) => {
                 self.config.alpha = a;
@@ -159,7 +171,7 @@ where
                 limit: SOUND_SPEED.to_string(),
                 source: <serde_json::Error as serde::de::Error>::custom(format!(
                     "alpha: {state} holds no number in (0, {}]",
-                    self.config.alpha
+                    self.configured_alpha
                 ))
                 .into(),
             }),

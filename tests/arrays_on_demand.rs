@@ -132,12 +132,18 @@ fn with_the_bound_in_the_summary_most_steps_read_no_arrays() {
 /// nodal fields a later call reads is read twice).
 #[test]
 fn loading_the_particles_alone_takes_the_same_steps() {
+    same_steps_loading_particles_alone(ControllerConfig::default(), 12.0);
+}
+
+/// Runs the block to `t_end` loading in full and loading the particles alone; asserts
+/// the same accepted steps bit for bit; returns the rejected attempts.
+fn same_steps_loading_particles_alone(config: ControllerConfig, t_end: f64) -> usize {
     let mut full = block(true);
-    let (full_d, r) = run(&mut full, ControllerConfig::default(), 12.0);
+    let (full_d, r) = run(&mut full, config.clone(), t_end);
     r.unwrap();
     let mut alone = block(true);
     alone.particles_alone = true;
-    let (alone_d, r) = run(&mut alone, ControllerConfig::default(), 12.0);
+    let (alone_d, r) = run(&mut alone, config, t_end);
     r.unwrap();
     let (a, b) = (accepted(&full_d), accepted(&alone_d));
     assert_eq!(a.len(), b.len());
@@ -153,6 +159,23 @@ fn loading_the_particles_alone_takes_the_same_steps() {
     );
     assert!(alone.particle_loads > 0 && alone.loads < full.loads);
     assert!(alone.loads + alone.particle_loads >= full.loads);
+    let rejected = |d: &[Decision]| d.iter().filter(|x| x.outcome != Outcome::Accepted).count();
+    assert_eq!(rejected(&full_d), rejected(&alone_d));
+    rejected(&full_d)
+}
+
+/// A stepper that does not hand over on demand and shows a view without its nodal arrays
+/// is refused at the door, naming the view (not read as a summary-only view).
+#[test]
+fn a_view_without_nodal_arrays_is_refused_where_not_on_demand() {
+    let mut broken = block(true);
+    broken.offer = false;
+    broken.hide_nodal = true;
+    let (_, r) = run(&mut broken, ControllerConfig::default(), 0.5);
+    match r {
+        Err(ControllerError::InvalidView { .. }) => {}
+        other => panic!("expected InvalidView, got {other:?}"),
+    }
 }
 
 /// A trial whose summary is not finite has its arrays loaded; the stepper's read names

@@ -103,6 +103,10 @@ fn the_sound_speed_limit_keeps_its_lowered_alpha() {
     let mut fresh = SoundSpeed::new(config).unwrap();
     StepLimit::<2>::restore_state(&mut fresh, &saved).unwrap();
     assert_eq!(fresh.config().alpha.to_bits(), 0.2f64.to_bits());
+    // A limit already lowered takes back a larger α up to the configured one.
+    let earlier = serde_json::json!({"alpha": 0.3});
+    StepLimit::<2>::restore_state(&mut lowered, &earlier).unwrap();
+    assert_eq!(lowered.config().alpha.to_bits(), 0.3f64.to_bits());
     // An α above the configured one, or none, is refused with the limit's name.
     for bad in [serde_json::json!({"alpha": 0.8}), serde_json::json!({})] {
         let e = StepLimit::<2>::restore_state(&mut fresh, &bad).unwrap_err();
@@ -121,7 +125,21 @@ fn a_stability_state_that_does_not_fit_is_refused() {
     odd["x_ref"] = serde_json::json!([0.5, 0.5]); // not three numbers a particle
     let mut unsafe_safety = fresh.clone();
     unsafe_safety["safety"] = serde_json::json!(2.0);
-    for bad in [odd, unsafe_safety, serde_json::json!({"lambda": "x"})] {
+    let mut unpaired = fresh.clone();
+    unpaired["x_ref"] = serde_json::json!([0.5, 0.5, 0.5]); // one particle, no moduli pair
+    let mut negative = fresh.clone();
+    negative["lambda"] = serde_json::json!(-1.0);
+    let mut shrinking = fresh.clone();
+    shrinking["diag_growth"] = serde_json::json!(0.5);
+    let bad_states = [
+        odd,
+        unsafe_safety,
+        unpaired,
+        negative,
+        shrinking,
+        serde_json::json!({"lambda": "x"}),
+    ];
+    for bad in bad_states {
         let e = StepLimit::<3>::restore_state(&mut limit, &bad).unwrap_err();
         assert!(
             matches!(&e, LimitError::Restore { limit, .. } if limit == "stability"),

@@ -26,9 +26,11 @@ where
     ) -> Result<(), ControllerError> {
         let step = view.step_index();
         let contents = self.contents_due(step, attempt);
-        // A summary-only view (arrays on demand) holds nothing to check; it is loaded
-        // whenever the contents are due (`super::on_demand`).
-        let result = match view.holds_arrays() {
+        // A summary-only view of a stepper handing over on demand holds nothing to check;
+        // it is loaded whenever the contents are due (`super::on_demand`). Any other
+        // stepper's view is checked whole: one without its arrays is refused.
+        let checked = view.holds_arrays() || !self.arrays_on_demand;
+        let result = match checked {
             false => Ok(()),
             true => view.check_shape().and_then(|_| {
                 if contents {
@@ -38,7 +40,7 @@ where
                 }
             }),
         };
-        if contents && view.holds_arrays() && result.is_ok() {
+        if contents && checked && result.is_ok() {
             self.first_view_checked = true;
         }
         let mut failed = [result.is_err()];
@@ -63,9 +65,10 @@ where
 }
 
 /// The shape check of a trial view (its finite values are the trial check's business: a
-/// non-finite trial is rejected and retried). `Some` ends the run.
-pub(super) fn check_trial<V: StateView>(after: &V) -> Option<ControllerError> {
-    if !after.holds_arrays() {
+/// non-finite trial is rejected and retried); a view without its arrays is checked only
+/// where the stepper does not hand them over on demand (`on_demand`). `Some` ends the run.
+pub(super) fn check_trial<V: StateView>(after: &V, on_demand: bool) -> Option<ControllerError> {
+    if on_demand && !after.holds_arrays() {
         return None;
     }
     let source = after.check_shape().err()?;

@@ -19,7 +19,8 @@
 //! limit's guard and refreshes), so that the run's decisions are those of full loads. The
 //! limits are then asked again with the loaded trial, and the rest loaded where one of
 //! them turns. A state of particles alone is summary-only to every other call: the door
-//! check and the proposals load it in full where they read it.
+//! check loads it in full where it reads it, and the proposals always (it is left so only
+//! by a rejected trial, and with full loads it would be whole at the retry).
 
 use super::{Controller, ControllerError};
 use crate::dimension::{Dim, Dimension, StateView, ViewOf};
@@ -42,10 +43,13 @@ where
     }
 
     /// Whether the committed view's arrays must be loaded before the proposals of
-    /// attempt `attempt`.
+    /// attempt `attempt`. A committed state holding its particles alone (loaded so for the
+    /// check of a trial that was then rejected) is loaded in full: with full loads it
+    /// would hold its arrays here, and the proposals of the retry are those of full loads.
     pub(super) fn arrays_to_propose(&self, view: &ViewOf<'_, D>, attempt: u32) -> bool {
         !view.holds_arrays()
-            && (self.contents_due(view.step_index(), attempt)
+            && (view.holds_particles()
+                || self.contents_due(view.step_index(), attempt)
                 || self.limits_read(LimitCall::Propose, view))
     }
 
@@ -184,10 +188,18 @@ where
         true => stepper.load_arrays(trial)?,
         false => stepper.load_particles(trial)?,
     }
-    let loaded = match trial {
+    let mut loaded = match trial {
         false => holds(&stepper.view()),
         true => stepper.trial_view().is_some_and(|v| holds(&v)),
     };
+    if !loaded && !full {
+        // A view of no particles cannot show that it holds them alone: load it whole.
+        stepper.load_arrays(trial)?;
+        loaded = match trial {
+            false => stepper.view().holds_arrays(),
+            true => stepper.trial_view().is_some_and(|v| v.holds_arrays()),
+        };
+    }
     match loaded {
         true => Ok(()),
         false => Err(StepError::Other(format!(

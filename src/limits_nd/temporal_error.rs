@@ -220,16 +220,16 @@ where
         }
     }
 
-    /// When the trial keeps its particles in their committed order (on a grid-decomposed
-    /// run a trial that moves particles between processes is checked, so that the history
-    /// keeps following that order).
     /// A single-process history as consistent and, where the trial's particles are
-    /// loaded, as long as they are many ([`Self::usable_history`] decides at the estimate).
+    /// loaded, as long as they are many (the estimate decides with the history it can use).
     fn particles_suffice(history: &History<D>, state: &ViewNd<'_, D>) -> bool {
         let n = state.n_particles();
         history.consistent() && history.ids.is_empty() && (n == 0 || history.accel.len() == n)
     }
 
+    /// When the trial keeps its particles in their committed order (on a grid-decomposed
+    /// run a trial that moves particles between processes is checked, so that the history
+    /// keeps following that order).
     fn deferrable(_history: &History<D>, before: &ViewNd<'_, D>, after: &ViewNd<'_, D>) -> bool {
         match (before.split, after.split) {
             (None, None) => true,

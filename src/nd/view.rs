@@ -188,9 +188,11 @@ impl<'a, const D: usize> ViewNd<'a, D> {
 
     /// This view without its weights and nodal fields (all empty), its particle arrays and
     /// summary kept: what a stepper handing over on demand shows after
-    /// [`crate::Stepper::load_particles`]. For the library it is summary-only
-    /// ([`Self::holds_arrays`] is `false`) except to a limit that declares that its call
-    /// reads the particle arrays alone ([`crate::StepLimit::reads_nodal`]).
+    /// [`crate::Stepper::load_particles`]. It needs a summary ([`Self::summary`]) and a
+    /// grid with nodes: then, for the library, it is summary-only ([`Self::holds_arrays`]
+    /// is `false`) except to a limit that declares that its call reads the particle arrays
+    /// alone ([`crate::StepLimit::reads_nodal`]); without a summary it is a view with empty
+    /// nodal arrays, which the door check refuses.
     pub fn without_nodal(self) -> Self {
         Self {
             weights: ViewWeightsNd::formed(self.grid, super::ShapeNd::Linear, &[], &[]),

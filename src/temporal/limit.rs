@@ -369,9 +369,10 @@ where
             });
             return Ok(DeferredTrial::judgement(predicted));
         }
-        let mut judged = self.judge_trial(before, after, dt)?;
-        judged.estimate = self.non_smooth.judge(before.time(), dt, &judged.estimate);
-        let e = judged.estimate;
+        let judged = self.judge_trial(before, after, dt)?;
+        // Judged without the parts that do not fall with the step; the deferral of the
+        // next checks follows the estimate as it is (no deferral while a part is out).
+        let e = self.non_smooth.judge(before.time(), dt, &judged.estimate);
         if let Some(old) = self.judged.replace(judged).and_then(|j| j.rates) {
             self.spare = Some(old);
         }

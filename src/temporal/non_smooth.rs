@@ -38,8 +38,10 @@ use serde::{Deserialize, Serialize};
 const TESTED_SHRINK: f64 = 0.7;
 
 /// Checks for which a part found not to vanish stays excluded at most; then it counts
-/// again, and a retry tests it anew (one rejection in this many checks while the contact
-/// lasts, and at most this many checks without the part where it has ended).
+/// again, and a retry tests it anew (one rejection in `EXCLUDED_CHECKS + 1` checks while
+/// the contact lasts, and at most this many checks without the part where it has ended).
+/// The checks are not deferred meanwhile: the deferral follows the estimate with every
+/// part in it, which is above 1.
 pub const EXCLUDED_CHECKS: u32 = 8;
 
 /// A trial this limit rejected: its start time's bits, its step and its parts.
@@ -79,6 +81,8 @@ impl NonSmooth {
             self.checks_left[k] = self.checks_left[k].saturating_sub(1);
             if (parts[k] <= 1.0 && dt >= self.found_at[k]) || self.checks_left[k] == 0 {
                 self.excluded[k] = false;
+                self.found_at[k] = 0.0;
+                self.checks_left[k] = 0;
             }
         }
         if let Some(r) = self.rejected.filter(|r| r.t == t.to_bits() && dt < r.dt) {

@@ -32,6 +32,8 @@ pub struct OnDemand {
     trial_poisoned: bool,
     /// Whether `load_arrays` does nothing (a broken stepper).
     pub refuse_to_load: bool,
+    /// Whether every view leaves out its nodal arrays (a broken stepper).
+    pub hide_nodal: bool,
 }
 
 impl OnDemand {
@@ -51,6 +53,7 @@ impl OnDemand {
             poison_trials: 0,
             trial_poisoned: false,
             refuse_to_load: false,
+            hide_nodal: false,
         }
     }
 
@@ -71,6 +74,7 @@ impl OnDemand {
             ..s
         });
         match (loaded || !self.offer, particles) {
+            _ if self.hide_nodal => ViewNd { summary, ..full }.without_nodal(),
             (true, _) => ViewNd { summary, ..full },
             (false, true) => ViewNd { summary, ..full }.without_nodal(),
             (false, false) => ViewNd::summary_only(full.t, full.step, full.grid, summary.unwrap()),

@@ -85,7 +85,7 @@ where
             });
             return;
         };
-        if let Some(e) = super::super::door::check_trial(&after) {
+        if let Some(e) = super::super::door::check_trial(&after, self.arrays_on_demand) {
             v.fatal = Some(e);
             return;
         }

@@ -58,8 +58,10 @@ impl<const D: usize> StabilityNd<D> {
     }
 
     /// Restores [`Self::saved`]'s state; a state that does not read, or whose positions
-    /// are not `D` numbers a particle, or whose safety is not in `(0, 1]`·(the configured
-    /// one), is a [`LimitError::Restore`] naming the limit.
+    /// are not `D` numbers a particle with one moduli pair each, whose safety is not in
+    /// `(0, the configured one]`, whose `λmax` is not finite and positive, or whose growth
+    /// factors are below 1, is a [`LimitError::Restore`] naming the limit (the limit is
+    /// left as it was).
     pub(super) fn restore(&mut self, state: &serde_json::Value) -> Result<(), LimitError> {
         let error = |source: serde_json::Error| LimitError::Restore {
             limit: super::STABILITY.to_string(),
@@ -70,8 +72,26 @@ impl<const D: usize> StabilityNd<D> {
         if !saved.x_ref.len().is_multiple_of(D) {
             return Err(invalid("x_ref: not D numbers a particle"));
         }
+        if saved.moduli_ref.len() != saved.x_ref.len() / D {
+            return Err(invalid(
+                "moduli_ref: not one pair for each particle of x_ref",
+            ));
+        }
         if !(saved.safety > 0.0 && saved.safety <= self.config.safety) {
             return Err(invalid("safety: not in (0, the configured safety]"));
+        }
+        if saved.lambda.is_some_and(|l| !(l.is_finite() && l > 0.0)) {
+            return Err(invalid("lambda: not a finite positive number"));
+        }
+        let at_least_one = |x: f64| x.is_finite() && x >= 1.0;
+        let in_range = saved.gain.is_finite()
+            && saved.gain > 0.0
+            && at_least_one(saved.diag_growth)
+            && at_least_one(saved.on_summary.growth());
+        if !in_range {
+            return Err(invalid(
+                "gain, diag_growth or the guard's factor: out of range",
+            ));
         }
         self.safety = saved.safety;
         self.lambda = saved.lambda;

@@ -52,6 +52,11 @@ impl Default for OnSummary {
 }
 
 impl OnSummary {
+    /// The guard's factor at the last check.
+    pub(crate) fn growth(&self) -> f64 {
+        self.growth
+    }
+
     /// A full check found the factor `growth`.
     pub(crate) fn checked(&mut self, growth: f64) {
         self.growth = growth;

@@ -19,7 +19,7 @@ where
 {
     /// The limit's state for a checkpoint (module docs).
     pub(super) fn saved(&self) -> Option<serde_json::Value> {
-        match self.non_smooth == NonSmooth::default() {
+        match self.non_smooth.excluded == [false; 2] {
             true => serde_json::to_value(&self.history).ok(),
             false => Some(serde_json::json!({
                 "history": serde_json::to_value(&self.history).ok()?,
