@@ -173,32 +173,32 @@ pub(super) fn load<const D: usize>(
 where
     Dim<D>: Dimension,
 {
-    let holds = |v: &ViewOf<'_, D>| match full {
-        true => v.holds_arrays(),
-        false => v.holds_particles(),
+    // Whether the state holds everything (`whole`) or at least its particles.
+    let holds = |stepper: &dyn Stepper<D>, whole: bool| {
+        let of = |v: &ViewOf<'_, D>| {
+            if whole {
+                v.holds_arrays()
+            } else {
+                v.holds_particles()
+            }
+        };
+        match trial {
+            false => of(&stepper.view()),
+            true => stepper.trial_view().is_some_and(|v| of(&v)),
+        }
     };
-    let loaded = match trial {
-        false => holds(&stepper.view()),
-        true => stepper.trial_view().is_some_and(|v| holds(&v)),
-    };
-    if loaded {
+    if holds(stepper, full) {
         return Ok(());
     }
     match full {
         true => stepper.load_arrays(trial)?,
         false => stepper.load_particles(trial)?,
     }
-    let mut loaded = match trial {
-        false => holds(&stepper.view()),
-        true => stepper.trial_view().is_some_and(|v| holds(&v)),
-    };
+    let mut loaded = holds(stepper, full);
     if !loaded && !full {
         // A view of no particles cannot show that it holds them alone: load it whole.
         stepper.load_arrays(trial)?;
-        loaded = match trial {
-            false => stepper.view().holds_arrays(),
-            true => stepper.trial_view().is_some_and(|v| v.holds_arrays()),
-        };
+        loaded = holds(stepper, true);
     }
     match loaded {
         true => Ok(()),

@@ -36,8 +36,6 @@
 
 use super::deferral::{self, Deferral, DeferredTrial, Scheduled};
 use super::non_smooth::NonSmooth;
-
-mod checkpoint;
 use super::{TemporalErrorConfig, TEMPORAL_ERROR};
 use crate::dimension::{Dim, Dimension, StateView, ViewOf};
 use crate::limit::{
@@ -45,6 +43,8 @@ use crate::limit::{
 };
 use serde::de::DeserializeOwned;
 use serde::Serialize;
+
+mod checkpoint;
 
 /// What one estimate of a trial gives.
 #[derive(Clone, Copy, Debug, PartialEq)]
