@@ -40,12 +40,25 @@ pub enum WeightKind {
     D,
 }
 
-/// Why a set of weight rows could not be stored.
+/// Why a set of weight rows could not be stored, in any dimension ([`Weights::push_row`]
+/// in 1D, [`crate::nd::WeightsNd::from_rows`] in 2D/3D).
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum WeightsError {
+    /// An array does not hold `width` entries per particle (2D/3D whole arrays).
+    #[error("weights: {what} has {len} entries, expected {expected} (width {width})")]
+    Length {
+        /// Which array.
+        what: &'static str,
+        /// Its length.
+        len: usize,
+        /// The expected length.
+        expected: usize,
+        /// The row width.
+        width: usize,
+    },
     /// A row has a different number of entries than the width.
-    #[error("particle {particle}: row has {len} entries, width is {width}")]
+    #[error("weights: particle {particle}: row has {len} entries, width is {width}")]
     RowLength {
         /// Particle index.
         particle: usize,
@@ -55,7 +68,7 @@ pub enum WeightsError {
         width: usize,
     },
     /// A node index is out of range.
-    #[error("particle {particle}: node {node} out of range (n_nodes = {n_nodes})")]
+    #[error("weights: particle {particle} refers to node {node} (n_nodes = {n_nodes})")]
     NodeOutOfRange {
         /// Particle index.
         particle: usize,
@@ -64,8 +77,8 @@ pub enum WeightsError {
         /// Number of nodes.
         n_nodes: usize,
     },
-    /// A weight is NaN or infinite.
-    #[error("particle {particle}: non-finite weight")]
+    /// A weight or gradient is NaN or infinite.
+    #[error("weights: non-finite weight or gradient at particle {particle}")]
     NonFinite {
         /// Particle index.
         particle: usize,

@@ -48,7 +48,6 @@
 
 pub mod bound_tracking;
 pub mod element_bound;
-pub mod full_map;
 pub mod growth;
 pub mod nodal_full_map;
 pub mod sound_speed;
@@ -68,7 +67,8 @@ pub use stability_config::StabilityNdConfig;
 pub use temporal_error::{RateSweeps, TemporalErrorNd};
 pub use transfer::{apic_gain, TransferNd};
 
-// The critical steps for verification run the 2D/3D reference solver: they live in the test
-// bench (`src/testbench/limits_nd/critical.rs`); their public path stays here.
+// The verification tools live in the test bench (`src/testbench/limits_nd/`): the critical
+// steps of a layout run the 2D/3D reference solver, and the dense full map is a check on
+// small layouts, not part of a limit. Their public paths stay here.
 #[cfg(feature = "reference")]
-pub use crate::testbench::limits_nd::critical;
+pub use crate::testbench::limits_nd::{critical, full_map};

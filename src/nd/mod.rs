@@ -20,7 +20,7 @@ pub use grid::GridNd;
 pub use shape::{AxisStencil, ShapeNd};
 pub use view::{NodalHalo, SplitNd, SummaryNd, ViewNd};
 pub use view_weights::ViewWeightsNd;
-pub use weights::{WeightsNd, WeightsNdError};
+pub use weights::WeightsNd;
 
 // The 2D/3D reference solver, its scenarios and exact problems live in the test bench
 // (`src/testbench/nd/`); their public paths stay here.

@@ -10,6 +10,7 @@
 //! `27 × (4 + 8 + 24) = 972` bytes.
 
 use super::Vector;
+use crate::weights::WeightsError;
 
 /// `S` and `∇S` of every particle as stored rows (module docs).
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -19,40 +20,6 @@ pub struct WeightsNd<const D: usize> {
     nodes: Vec<u32>,
     s: Vec<f64>,
     grad: Vec<Vector<D>>,
-}
-
-/// Why a set of weight rows could not be stored.
-#[derive(Clone, Debug, PartialEq, thiserror::Error)]
-#[non_exhaustive]
-pub enum WeightsNdError {
-    /// The arrays do not hold `width` entries per particle.
-    #[error("weights: {what} has {len} entries, expected {expected} (width {width})")]
-    Length {
-        /// Which array.
-        what: &'static str,
-        /// Its length.
-        len: usize,
-        /// The expected length.
-        expected: usize,
-        /// The row width.
-        width: usize,
-    },
-    /// A node index is out of range.
-    #[error("weights: particle {particle} refers to node {node} (n_nodes = {n_nodes})")]
-    NodeOutOfRange {
-        /// Particle index.
-        particle: usize,
-        /// The node index.
-        node: usize,
-        /// Number of nodes.
-        n_nodes: usize,
-    },
-    /// A weight or gradient is not finite.
-    #[error("weights: non-finite value at particle {particle}")]
-    NonFinite {
-        /// Particle index.
-        particle: usize,
-    },
 }
 
 impl<const D: usize> WeightsNd<D> {
@@ -72,12 +39,12 @@ impl<const D: usize> WeightsNd<D> {
         nodes: Vec<u32>,
         s: Vec<f64>,
         grad: Vec<Vector<D>>,
-    ) -> Result<Self, WeightsNdError> {
+    ) -> Result<Self, WeightsError> {
         let n = nodes.len().checked_div(width).unwrap_or(0);
         let expected = n * width;
         for (what, len) in [("nodes", nodes.len()), ("s", s.len()), ("grad", grad.len())] {
             if len != expected || width == 0 && len != 0 {
-                return Err(WeightsNdError::Length {
+                return Err(WeightsError::Length {
                     what,
                     len,
                     expected,
@@ -87,14 +54,14 @@ impl<const D: usize> WeightsNd<D> {
         }
         for (k, &node) in nodes.iter().enumerate() {
             if node as usize >= n_nodes {
-                return Err(WeightsNdError::NodeOutOfRange {
+                return Err(WeightsError::NodeOutOfRange {
                     particle: k / width,
                     node: node as usize,
                     n_nodes,
                 });
             }
             if !s[k].is_finite() || grad[k].iter().any(|g| !g.is_finite()) {
-                return Err(WeightsNdError::NonFinite {
+                return Err(WeightsError::NonFinite {
                     particle: k / width,
                 });
             }

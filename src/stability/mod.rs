@@ -65,7 +65,6 @@ pub mod certificate;
 pub mod certified;
 pub(crate) mod element_bound;
 pub(crate) mod error;
-pub mod full_map;
 pub mod lambda_max;
 pub mod limit;
 mod localise;
@@ -77,7 +76,6 @@ pub mod sound_speed;
 
 pub use certified::{CertifiedConfig, CertifiedEstimate, CertifiedTracker};
 pub use error::StabilityError;
-pub use full_map::{FullMap, FullMapConfig};
 pub use lambda_max::{
     LambdaEstimate, LambdaMaxTracker, LanczosConfig, SymmetricOperator, TrackerState,
 };
@@ -85,14 +83,17 @@ pub use nodal::NodalOperator;
 
 pub use crate::sound_speed::{SoundSpeed, SoundSpeedConfig};
 pub use bound58::{bound58, Bound58, Bound58Reading};
-// The empirical critical step runs the 1D reference solver: it lives in the test bench
-// (`src/testbench/stability/empirical.rs`); its public path stays here.
+// The verification tools live in the test bench (`src/testbench/stability/`): the empirical
+// critical step runs the 1D reference solver, and the dense full map is a check on small
+// layouts, not part of a limit. Their public paths stay here.
 #[cfg(feature = "reference")]
-pub use crate::testbench::stability::empirical;
+pub use crate::testbench::stability::{empirical, full_map};
 #[cfg(feature = "reference")]
 pub use empirical::{
     scan_monotone, EmpiricalConfig, EmpiricalCritical, MonotoneScan, Protocol, RunOutcome,
     SCAN_POINTS,
 };
+#[cfg(feature = "reference")]
+pub use full_map::{FullMap, FullMapConfig};
 pub use limit::{Refresh, Stability, StabilityConfig, Tracking};
 pub use operator::Eq56Operator;

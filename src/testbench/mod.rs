@@ -15,7 +15,9 @@
 //! | `nd/` | the 2D/3D reference solver ([`crate::nd::SolverNd`]: particles, material, fused and threaded steps, slabs and migration) | [`crate::nd`] |
 //! | `nd/scenario/`, `nd/problems.rs` | 2D/3D scenarios and exact problems | [`crate::nd::scenario`], [`crate::nd::problems`] |
 //! | `stability/empirical.rs` | the 1D empirical critical step | [`crate::stability::empirical`] |
+//! | `stability/full_map.rs` | the 1D dense frozen-particle full map (small layouts) | [`crate::stability::full_map`] |
 //! | `limits_nd/critical.rs` | the 2D/3D critical steps of a layout | [`crate::limits_nd::critical`] |
+//! | `limits_nd/full_map.rs` | the 2D/3D dense frozen-particle full map (small layouts) | [`crate::limits_nd::full_map`] |
 
 pub mod limits_nd;
 pub mod memory;

@@ -31,7 +31,7 @@
 //! At one particle per cell the map's velocity half decouples and the critical step equals
 //! eq 56's (tested).
 
-use super::error::{check_dt, check_view, StabilityError};
+use crate::stability::error::{check_dt, check_view, StabilityError};
 use crate::stepper::View;
 use crate::weights::{WeightKind, Weights};
 use faer::Mat;
