@@ -2,7 +2,7 @@
 //! periodic boxes, a rejected trial restores its state bit for bit (property test), and a
 //! bad scenario is a typed error naming the field.
 
-use mpm_dt::nd::scenario::{ScenarioNd, ScenarioNdError};
+use mpm_dt::nd::scenario::{ScenarioError, ScenarioNd};
 use mpm_dt::nd::{GridNd, MaterialNd, ParticlesNd, ShapeNd, SolverNd, Vector};
 use mpm_dt::{Boundary, Dim, Dimension, Stepper, ViewNd};
 use proptest::prelude::*;
@@ -129,7 +129,7 @@ proptest! {
     }
 }
 
-fn build_error(json: &str) -> ScenarioNdError {
+fn build_error(json: &str) -> ScenarioError {
     let s = match ScenarioNd::from_json(json) {
         Ok(s) => s,
         Err(e) => return e,

@@ -26,8 +26,7 @@ pub use weights::WeightsNd;
 // (`src/testbench/nd/`); their public paths stay here.
 #[cfg(feature = "reference")]
 pub use crate::testbench::nd::{
-    problems, scenario, MaterialNd, ParticlesNd, SetupNdError, SolverNd, ThreadsError,
-    MIN_SLAB_CELLS,
+    problems, scenario, MaterialNd, ParticlesNd, SetupError, SolverNd, ThreadsError, MIN_SLAB_CELLS,
 };
 
 use nalgebra::{SMatrix, SVector};

@@ -25,4 +25,5 @@ pub mod mpm;
 pub mod nd;
 pub mod problems;
 pub mod scenario;
+pub mod setup_error;
 pub mod stability;

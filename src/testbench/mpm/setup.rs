@@ -7,6 +7,7 @@
 //! most three nodes), so wider particles are an error rather than silently wrong weights.
 
 use crate::grid::{Boundary, Grid};
+pub use crate::testbench::setup_error::SetupError;
 use serde::{Deserialize, Serialize};
 
 /// Particle fields at `t = 0` (or at a checkpoint). All vectors have one entry per particle.
@@ -27,87 +28,6 @@ pub struct ParticleInit {
     /// GIMP particle widths `l_p` with `0 < l_p ≤ h` (ignored by linear-hat weights but
     /// still validated). In 1D the natural choice is `l_p = V_p⁰`.
     pub width: Vec<f64>,
-}
-
-/// Why a reference solver could not be built. Every variant names the field.
-#[derive(Clone, Debug, PartialEq, thiserror::Error)]
-#[non_exhaustive]
-pub enum SetupError {
-    /// The grid has no cells or a non-positive or non-finite spacing or origin.
-    #[error("invalid grid: {reason}")]
-    Grid {
-        /// What is wrong.
-        reason: String,
-    },
-    /// Young's modulus is not a positive finite number.
-    #[error("invalid material: youngs_modulus = {value} must be positive and finite")]
-    Material {
-        /// The offending modulus.
-        value: f64,
-    },
-    /// A checkpoint's time is negative or not finite.
-    #[error("invalid checkpoint time t = {value}")]
-    Time {
-        /// The offending time.
-        value: f64,
-    },
-    /// There are no particles.
-    #[error("no particles")]
-    NoParticles,
-    /// A particle field has the wrong length.
-    #[error("particle field {field} has {len} entries, expected {expected} (length of x)")]
-    Length {
-        /// Field name (`"v"`, `"sigma"`, `"f"`, `"volume0"`, `"mass"`, `"width"`).
-        field: &'static str,
-        /// Its length.
-        len: usize,
-        /// Number of particles.
-        expected: usize,
-    },
-    /// A value is NaN or infinite.
-    #[error("particle field {field}[{index}] = {value} is not finite")]
-    NonFinite {
-        /// Field name.
-        field: &'static str,
-        /// Particle index.
-        index: usize,
-        /// The value.
-        value: f64,
-    },
-    /// A value that must be positive (`f`, `volume0`, `mass`, `width`) is not.
-    #[error("particle field {field}[{index}] = {value} must be positive")]
-    NonPositive {
-        /// Field name.
-        field: &'static str,
-        /// Particle index.
-        index: usize,
-        /// The value.
-        value: f64,
-    },
-    /// A GIMP width exceeds the grid spacing (the weights would no longer be exact).
-    #[error("particle width[{index}] = {value} exceeds the grid spacing h = {h}")]
-    WidthExceedsSpacing {
-        /// Particle index.
-        index: usize,
-        /// The width.
-        value: f64,
-        /// Grid spacing.
-        h: f64,
-    },
-    /// A particle lies outside the domain.
-    #[error("particle x[{index}] = {value} is outside the domain [{lower}, {upper}{close}", close = if *periodic { ")" } else { "]" })]
-    OutOfDomain {
-        /// Particle index.
-        index: usize,
-        /// Its position.
-        value: f64,
-        /// Left end `a`.
-        lower: f64,
-        /// Right end `a + L`.
-        upper: f64,
-        /// Whether the right end is excluded (periodic domain).
-        periodic: bool,
-    },
 }
 
 /// Checks the grid.

@@ -15,6 +15,6 @@ mod threaded;
 mod update;
 
 pub use material::MaterialNd;
-pub use particles::{ParticlesNd, SetupNdError};
+pub use particles::{ParticlesNd, SetupError};
 pub use slab::MIN_CELLS as MIN_SLAB_CELLS;
 pub use solver::{SolverNd, ThreadsError};

@@ -1,9 +1,9 @@
 //! The particles a d-dimensional solver starts from, and why a set of them is refused.
 
 use super::MaterialNd;
-use crate::fmt_num::Num;
 use crate::grid::Boundary;
 use crate::nd::{GridNd, ShapeNd, Vector};
+pub use crate::testbench::setup_error::SetupError;
 
 /// Initial particle fields of a d-dimensional run. All vectors have one entry per particle.
 #[derive(Clone, Debug, PartialEq)]
@@ -96,10 +96,10 @@ impl<const D: usize> ParticlesNd<D> {
     /// Checks the particles against the grid and shape: equal lengths, finite values,
     /// positive masses, volumes and domain lengths (GIMP: at most one cell), valid
     /// materials, positions inside fixed boxes, quadratic B-splines on periodic axes only.
-    pub fn validate(&self, grid: &GridNd<D>, shape: ShapeNd) -> Result<(), SetupNdError> {
+    pub fn validate(&self, grid: &GridNd<D>, shape: ShapeNd) -> Result<(), SetupError> {
         let n = self.x.len();
         if n == 0 {
-            return Err(SetupNdError::NoParticles);
+            return Err(SetupError::NoParticles);
         }
         for (field, len) in [
             ("v", self.v.len()),
@@ -109,7 +109,7 @@ impl<const D: usize> ParticlesNd<D> {
             ("material", self.material.len()),
         ] {
             if len != n {
-                return Err(SetupNdError::Length {
+                return Err(SetupError::Length {
                     field,
                     len,
                     expected: n,
@@ -118,17 +118,17 @@ impl<const D: usize> ParticlesNd<D> {
         }
         for a in 0..D {
             if !(grid.cells[a] >= 1 && grid.h[a].is_finite() && grid.h[a] > 0.0) {
-                return Err(SetupNdError::Grid { axis: a });
+                return Err(SetupError::GridAxis { axis: a });
             }
             if shape == ShapeNd::BSpline2 && grid.boundary[a] == Boundary::Fixed {
-                return Err(SetupNdError::BSplineOnFixedAxis { axis: a });
+                return Err(SetupError::BSplineOnFixedAxis { axis: a });
             }
             if shape == ShapeNd::BSpline2 && grid.cells[a] < 3 {
-                return Err(SetupNdError::Grid { axis: a });
+                return Err(SetupError::GridAxis { axis: a });
             }
         }
         for p in 0..n {
-            let bad = |field: &'static str, value: f64| SetupNdError::Invalid {
+            let bad = |field: &'static str, value: f64| SetupError::Invalid {
                 field,
                 index: p,
                 value,
@@ -141,7 +141,7 @@ impl<const D: usize> ParticlesNd<D> {
                 if grid.boundary[a] == Boundary::Fixed
                     && !(grid.origin[a]..=grid.origin[a] + grid.length(a)).contains(&x)
                 {
-                    return Err(SetupNdError::OutsideBox {
+                    return Err(SetupError::OutsideBox {
                         index: p,
                         axis: a,
                         x,
@@ -174,72 +174,4 @@ impl<const D: usize> ParticlesNd<D> {
         }
         Ok(())
     }
-}
-
-/// Why a d-dimensional solver could not be set up.
-#[derive(Clone, Debug, PartialEq, thiserror::Error)]
-#[non_exhaustive]
-pub enum SetupNdError {
-    /// No particles were given.
-    #[error("no particles")]
-    NoParticles,
-    /// A per-particle array has the wrong length.
-    #[error("particles: {field} has {len} entries, expected {expected}")]
-    Length {
-        /// Which array.
-        field: &'static str,
-        /// Its length.
-        len: usize,
-        /// The number of particles.
-        expected: usize,
-    },
-    /// A value is not finite or out of its range.
-    #[error("particles: invalid {field} {} at particle {index}", Num(*value))]
-    Invalid {
-        /// Which field.
-        field: &'static str,
-        /// Particle index.
-        index: usize,
-        /// The value.
-        value: f64,
-    },
-    /// A particle lies outside a fixed box.
-    #[error("particle {index} is outside the fixed box on axis {axis} (x = {})", Num(*x))]
-    OutsideBox {
-        /// Particle index.
-        index: usize,
-        /// The axis.
-        axis: usize,
-        /// Its coordinate.
-        x: f64,
-    },
-    /// Quadratic B-splines need periodic axes.
-    #[error("shape bspline2 needs a periodic boundary, axis {axis} is fixed")]
-    BSplineOnFixedAxis {
-        /// The axis.
-        axis: usize,
-    },
-    /// The grid of an axis is invalid (no cells, non-positive or non-finite spacing, or
-    /// fewer than 3 cells for B-splines).
-    #[error("grid: invalid cells or spacing on axis {axis}")]
-    Grid {
-        /// The axis.
-        axis: usize,
-    },
-    /// The gravity vector is not finite.
-    #[error("gravity is not finite")]
-    Gravity,
-    /// The grid's last axis has too few cells to give every process a slab.
-    #[error(
-        "{cells} cells along the last axis cannot be split into slabs of at least \
-         {min_cells} cells over {processes} processes"
-    )]
-    Decomposition {
-        /// Cells along the last axis.
-        cells: usize,
-        /// Number of processes.
-        processes: usize,
-        /// Fewest cells per slab.
-        min_cells: usize,
-    },
 }

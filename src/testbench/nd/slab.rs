@@ -36,7 +36,7 @@
 //! Both are two shifts ([`crate::reduce::Reduce::exchange`]): to the upper neighbour and
 //! from the lower one, then the reverse.
 
-use super::SetupNdError;
+use super::SetupError;
 use crate::grid::Boundary;
 use crate::nd::{GridNd, NodalHalo, Vector};
 use crate::reduce::Reduce;
@@ -69,16 +69,16 @@ pub struct SlabNd<const D: usize> {
 
 impl<const D: usize> SlabNd<D> {
     /// This process's slab of `whole` over the processes of `reduce`.
-    pub fn new(whole: GridNd<D>, reduce: Rc<dyn Reduce>) -> Result<Self, SetupNdError> {
+    pub fn new(whole: GridNd<D>, reduce: Rc<dyn Reduce>) -> Result<Self, SetupError> {
         let axis = D - 1;
         let (rank, size) = (reduce.rank(), reduce.size().max(1));
         if whole.n_nodes() > u32::MAX as usize {
             // Node indices are stored as u32 (the weights' format).
-            return Err(SetupNdError::Grid { axis });
+            return Err(SetupError::GridAxis { axis });
         }
         let n_cells = whole.cells[axis];
         if size > 1 && n_cells < MIN_CELLS * size {
-            return Err(SetupNdError::Decomposition {
+            return Err(SetupError::Decomposition {
                 cells: n_cells,
                 processes: size,
                 min_cells: MIN_CELLS,
@@ -336,7 +336,7 @@ mod tests {
         assert!(SlabNd::new(small.clone(), Rc::new(SingleProcess)).is_ok());
         assert!(matches!(
             SlabNd::new(small, Rc::new(TwoOf(0))),
-            Err(SetupNdError::Decomposition { cells: 7, .. })
+            Err(SetupError::Decomposition { cells: 7, .. })
         ));
     }
 

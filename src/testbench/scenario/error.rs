@@ -1,16 +1,18 @@
-//! [`ScenarioError`]: why a 1D scenario could not be loaded or built, and the two helpers
+//! [`ScenarioError`]: why a scenario file of any dimension (1D [`super::Scenario`], 2D/3D
+//! [`crate::nd::scenario::ScenarioNd`]) could not be loaded or built, and the two helpers
 //! that name the field of a bad value.
 
 use crate::mpm::SetupError;
+use crate::nd::problems::PlaneWaveError;
 use serde::de::DeserializeOwned;
 use std::path::PathBuf;
 
-/// Why a scenario could not be loaded or built.
+/// Why a scenario could not be loaded or built (module docs).
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum ScenarioError {
     /// The file could not be read.
-    #[error("cannot read scenario {path:?}: {message}")]
+    #[error("cannot read scenario {}: {message}", path.display())]
     Io {
         /// The file.
         path: PathBuf,
@@ -42,23 +44,31 @@ pub enum ScenarioError {
         /// The parser's message.
         reason: String,
     },
+    /// Malformed JSON, an unknown field or a value of the wrong type in a 2D/3D scenario
+    /// (serde's message names the field).
+    #[error("scenario: {0}")]
+    Parse(String),
     /// A field whose value is not allowed.
     #[error("invalid scenario field `{field}`: {reason}")]
     Invalid {
-        /// The field (`"cells"`, `"particles.positions"`, …).
-        field: &'static str,
+        /// The field (`"cells"`, `"particles.positions"`, `"bodies[0].box"`, …).
+        field: String,
         /// Why.
         reason: String,
     },
-    /// The solver rejected the particle data (should not happen after validation).
-    #[error(transparent)]
+    /// The solver rejected the particle data (in 1D this should not happen after
+    /// validation; in 2D/3D the particles may not fit the grid).
+    #[error("scenario field `particles`: {0}")]
     Setup(#[from] SetupError),
+    /// The 2D/3D plane wave is not valid.
+    #[error("scenario field `initial`: {0}")]
+    Wave(#[from] PlaneWaveError),
 }
 
 /// A [`ScenarioError::Invalid`] for `field`.
 pub(super) fn invalid(field: &'static str, reason: impl Into<String>) -> ScenarioError {
     ScenarioError::Invalid {
-        field,
+        field: field.to_string(),
         reason: reason.into(),
     }
 }

@@ -24,15 +24,16 @@
 //! ([`super::problems::PlaneWave`]). `controller` is a `ControllerConfig` as JSON.
 //!
 //! Loading never panics: unknown fields, wrong types and invalid values are
-//! [`ScenarioNdError`]s naming the field.
+//! [`ScenarioError`]s naming the field.
 
-use super::problems::{PlaneWave, PlaneWaveError};
-use super::{MaterialNd, ParticlesNd, SetupNdError, SolverNd};
+use super::problems::PlaneWave;
+use super::{MaterialNd, ParticlesNd, SetupError, SolverNd};
 use crate::controller::ControllerConfig;
 use crate::fmt_num::Num;
 use crate::grid::Boundary;
 use crate::nd::{GridNd, ShapeNd, Vector};
 use crate::reduce::Reduce;
+pub use crate::testbench::scenario::ScenarioError;
 use serde::{Deserialize, Serialize};
 use std::rc::Rc;
 
@@ -216,49 +217,14 @@ impl Default for ScenarioNd {
     }
 }
 
-/// Why a scenario of any dimension cannot be loaded or built.
-#[derive(Clone, Debug, PartialEq, thiserror::Error)]
-#[non_exhaustive]
-pub enum ScenarioNdError {
-    /// The file could not be read.
-    #[error("cannot read scenario {path}: {message}")]
-    Io {
-        /// The file.
-        path: String,
-        /// The I/O error.
-        message: String,
-    },
-    /// Malformed JSON, an unknown field or a value of the wrong type (serde's message names
-    /// the field).
-    #[error("scenario: {0}")]
-    Parse(String),
-    /// A value out of its range.
-    #[error("scenario field `{field}`: {reason}")]
-    Invalid {
-        /// The field.
-        field: String,
-        /// Why.
-        reason: String,
-    },
-    /// The particles do not fit the grid.
-    #[error("scenario field `particles`: {0}")]
-    Setup(#[from] SetupNdError),
-    /// The plane wave is not valid.
-    #[error("scenario field `initial`: {0}")]
-    Wave(#[from] PlaneWaveError),
-}
-
-fn invalid(field: &str, reason: impl Into<String>) -> ScenarioNdError {
-    ScenarioNdError::Invalid {
+fn invalid(field: &str, reason: impl Into<String>) -> ScenarioError {
+    ScenarioError::Invalid {
         field: field.to_string(),
         reason: reason.into(),
     }
 }
 
-fn per_axis<T: Copy, const D: usize>(
-    v: &PerAxis<T>,
-    field: &str,
-) -> Result<[T; D], ScenarioNdError> {
+fn per_axis<T: Copy, const D: usize>(v: &PerAxis<T>, field: &str) -> Result<[T; D], ScenarioError> {
     match v {
         PerAxis::One(x) => Ok([*x; D]),
         PerAxis::Many(xs) => <[T; D]>::try_from(xs.as_slice()).map_err(|_| {
@@ -270,7 +236,7 @@ fn per_axis<T: Copy, const D: usize>(
     }
 }
 
-fn vector<const D: usize>(v: &[f64], field: &str) -> Result<Vector<D>, ScenarioNdError> {
+fn vector<const D: usize>(v: &[f64], field: &str) -> Result<Vector<D>, ScenarioError> {
     if v.len() != D {
         return Err(invalid(
             field,
@@ -286,15 +252,15 @@ fn vector<const D: usize>(v: &[f64], field: &str) -> Result<Vector<D>, ScenarioN
 impl ScenarioNd {
     /// Parses a scenario from JSON text (no value checks beyond types; [`Self::build`]
     /// checks the rest).
-    pub fn from_json(text: &str) -> Result<Self, ScenarioNdError> {
-        serde_json::from_str(text).map_err(|e| ScenarioNdError::Parse(e.to_string()))
+    pub fn from_json(text: &str) -> Result<Self, ScenarioError> {
+        serde_json::from_str(text).map_err(|e| ScenarioError::Parse(e.to_string()))
     }
 
     /// Reads and parses a scenario file.
-    pub fn from_file(path: impl AsRef<std::path::Path>) -> Result<Self, ScenarioNdError> {
+    pub fn from_file(path: impl AsRef<std::path::Path>) -> Result<Self, ScenarioError> {
         let path = path.as_ref();
-        let text = std::fs::read_to_string(path).map_err(|e| ScenarioNdError::Io {
-            path: path.display().to_string(),
+        let text = std::fs::read_to_string(path).map_err(|e| ScenarioError::Io {
+            path: path.to_path_buf(),
             message: e.to_string(),
         })?;
         Self::from_json(&text)
@@ -302,9 +268,9 @@ impl ScenarioNd {
 
     /// The dimension a JSON text declares (`dim`, 1 when absent), for dispatching to the 1D
     /// [`crate::scenario::Scenario`] or to this format.
-    pub fn dim_of(text: &str) -> Result<usize, ScenarioNdError> {
+    pub fn dim_of(text: &str) -> Result<usize, ScenarioError> {
         let v: serde_json::Value =
-            serde_json::from_str(text).map_err(|e| ScenarioNdError::Parse(e.to_string()))?;
+            serde_json::from_str(text).map_err(|e| ScenarioError::Parse(e.to_string()))?;
         match v.get("dim") {
             None => Ok(1),
             Some(d) => d
@@ -318,7 +284,7 @@ impl ScenarioNd {
     /// The controller configuration (`controller`, or the defaults), checked for the
     /// scenario's dimension ([`ControllerConfig::validate_for`]: a 1D-only setting is an
     /// error naming it).
-    pub fn controller_config(&self) -> Result<ControllerConfig, ScenarioNdError> {
+    pub fn controller_config(&self) -> Result<ControllerConfig, ScenarioError> {
         match &self.controller {
             None | Some(serde_json::Value::Null) => Ok(ControllerConfig::default()),
             Some(v) => ControllerConfig::from_value(v.clone())
@@ -341,7 +307,7 @@ impl ScenarioNd {
         }
     }
 
-    fn check_scalars(&self) -> Result<(), ScenarioNdError> {
+    fn check_scalars(&self) -> Result<(), ScenarioError> {
         for (field, v) in [
             ("youngs_modulus", self.youngs_modulus),
             ("density", self.density),
@@ -368,7 +334,7 @@ impl ScenarioNd {
     /// if the initial condition has one.
     pub fn build<const D: usize>(
         &self,
-    ) -> Result<(SolverNd<D>, Option<PlaneWave<D>>), ScenarioNdError> {
+    ) -> Result<(SolverNd<D>, Option<PlaneWave<D>>), ScenarioError> {
         self.build_with(SolverNd::new)
     }
 
@@ -377,7 +343,7 @@ impl ScenarioNd {
     pub fn build_distributed<const D: usize>(
         &self,
         reduce: Rc<dyn Reduce>,
-    ) -> Result<(SolverNd<D>, Option<PlaneWave<D>>), ScenarioNdError> {
+    ) -> Result<(SolverNd<D>, Option<PlaneWave<D>>), ScenarioError> {
         self.build_with(|g, s, p, a| SolverNd::new_distributed(g, s, p, a, reduce))
     }
 
@@ -386,7 +352,7 @@ impl ScenarioNd {
     pub fn build_slab<const D: usize>(
         &self,
         reduce: Rc<dyn Reduce>,
-    ) -> Result<(SolverNd<D>, Option<PlaneWave<D>>), ScenarioNdError> {
+    ) -> Result<(SolverNd<D>, Option<PlaneWave<D>>), ScenarioError> {
         self.build_with(|g, s, p, a| SolverNd::new_slab(g, s, p, a, reduce))
     }
 
@@ -398,8 +364,8 @@ impl ScenarioNd {
             ShapeNd,
             ParticlesNd<D>,
             Vector<D>,
-        ) -> Result<SolverNd<D>, SetupNdError>,
-    ) -> Result<(SolverNd<D>, Option<PlaneWave<D>>), ScenarioNdError> {
+        ) -> Result<SolverNd<D>, SetupError>,
+    ) -> Result<(SolverNd<D>, Option<PlaneWave<D>>), ScenarioError> {
         let (grid, particles, gravity, wave) = self.parts::<D>()?;
         Ok((make(grid, self.shape, particles, gravity)?, wave))
     }
@@ -408,7 +374,7 @@ impl ScenarioNd {
     #[allow(clippy::type_complexity)]
     fn parts<const D: usize>(
         &self,
-    ) -> Result<(GridNd<D>, ParticlesNd<D>, Vector<D>, Option<PlaneWave<D>>), ScenarioNdError> {
+    ) -> Result<(GridNd<D>, ParticlesNd<D>, Vector<D>, Option<PlaneWave<D>>), ScenarioError> {
         if self.dim != D {
             return Err(invalid(
                 "dim",

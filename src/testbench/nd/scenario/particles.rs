@@ -1,7 +1,7 @@
 //! The particles of a scenario: `per_cell`, explicit `positions`, or `bodies` (boxes and
 //! balls filled cell-uniformly, later bodies replacing earlier particles).
 
-use super::{invalid, per_axis, vector, Body, PerAxis, ScenarioNd, ScenarioNdError, MAX_PARTICLES};
+use super::{invalid, per_axis, vector, Body, PerAxis, ScenarioError, ScenarioNd, MAX_PARTICLES};
 use crate::nd::{GridNd, MaterialNd, ParticlesNd, Vector};
 use std::collections::HashMap;
 
@@ -13,7 +13,7 @@ impl ScenarioNd {
         &self,
         grid: &GridNd<D>,
         base: MaterialNd,
-    ) -> Result<ParticlesNd<D>, ScenarioNdError> {
+    ) -> Result<ParticlesNd<D>, ScenarioError> {
         let spec = &self.particles;
         let forms = [
             spec.per_cell.is_some(),
@@ -44,7 +44,7 @@ impl ScenarioNd {
         pc: &PerAxis<usize>,
         n_cells: f64,
         base: MaterialNd,
-    ) -> Result<ParticlesNd<D>, ScenarioNdError> {
+    ) -> Result<ParticlesNd<D>, ScenarioError> {
         let k: [usize; D] = per_axis(pc, "particles.per_cell")?;
         let per: f64 = k.iter().map(|&k| k as f64).product();
         if k.contains(&0) || n_cells * per > MAX_PARTICLES as f64 {
@@ -64,7 +64,7 @@ impl ScenarioNd {
         pos: &[Vec<f64>],
         n_cells: f64,
         base: MaterialNd,
-    ) -> Result<ParticlesNd<D>, ScenarioNdError> {
+    ) -> Result<ParticlesNd<D>, ScenarioError> {
         let spec = &self.particles;
         let n = pos.len();
         if n == 0 || n > MAX_PARTICLES {
@@ -122,7 +122,7 @@ impl ScenarioNd {
         grid: &GridNd<D>,
         bodies: &[Body],
         n_cells: f64,
-    ) -> Result<ParticlesNd<D>, ScenarioNdError> {
+    ) -> Result<ParticlesNd<D>, ScenarioError> {
         let mut out = ParticlesNd {
             x: vec![],
             v: vec![],
@@ -152,7 +152,7 @@ impl ScenarioNd {
         body: &Body,
         field: &str,
         n_cells: f64,
-    ) -> Result<([usize; D], Vector<D>, f64, MaterialNd), ScenarioNdError> {
+    ) -> Result<([usize; D], Vector<D>, f64, MaterialNd), ScenarioError> {
         let k: [usize; D] = per_axis(body.per_cell.as_ref().unwrap_or(&PerAxis::One(2)), field)?;
         let per: f64 = k.iter().map(|&k| k as f64).product();
         if k.contains(&0) || n_cells * per > MAX_PARTICLES as f64 {
@@ -183,7 +183,7 @@ impl ScenarioNd {
 }
 
 /// Checks a body's shape (exactly one of box, ball) and returns its region test.
-fn body_region<const D: usize>(body: &Body, field: &str) -> Result<Region<D>, ScenarioNdError> {
+fn body_region<const D: usize>(body: &Body, field: &str) -> Result<Region<D>, ScenarioError> {
     match (&body.box_, &body.ball) {
         (Some(bx), None) => {
             let lo = vector::<D>(&bx.min, &format!("{field}.box.min"))?;
@@ -250,7 +250,7 @@ const PEAK_BYTES_PER_PARTICLE: [f64; 4] = [0.0, 400.0, 450.0, 700.0];
 
 /// Refuses up front a run of `n` particles on `n_cells` cells that the available memory
 /// cannot hold (the nodal fields and the tracker's vectors about 1 kB a node).
-fn fits<const D: usize>(n: f64, n_cells: f64, field: &str) -> Result<(), ScenarioNdError> {
+fn fits<const D: usize>(n: f64, n_cells: f64, field: &str) -> Result<(), ScenarioError> {
     let per_particle = PEAK_BYTES_PER_PARTICLE[D.min(3)];
     crate::memory::check(per_particle * n + 1000.0 * n_cells)
         .map_err(|reason| invalid(field, reason))

@@ -45,7 +45,7 @@ mod trial;
 
 pub use threads::ThreadsError;
 
-use super::particles::SetupNdError;
+use super::particles::SetupError;
 use super::slab::SlabNd;
 use super::MaterialNd;
 use crate::dimension::{Dim, Dimension, StateView};
@@ -360,7 +360,7 @@ impl<const D: usize> SolverNd<D> {
         &mut self,
         v: &[Vector<D>],
         sigma: &[Tensor<D>],
-    ) -> Result<(), SetupNdError> {
+    ) -> Result<(), SetupError> {
         let n = self.n_particles();
         for (field, len) in [("v", v.len()), ("sigma", sigma.len())] {
             if len != n {
@@ -369,7 +369,7 @@ impl<const D: usize> SolverNd<D> {
                 // The same reductions as the summary of a state that was set (none when
                 // summaries are off).
                 let _ = self.trial_summary(None, None);
-                return Err(SetupNdError::Length {
+                return Err(SetupError::Length {
                     field,
                     len,
                     expected: n,
@@ -383,7 +383,7 @@ impl<const D: usize> SolverNd<D> {
         c.summary = self.summarize.then(|| self.summary_of(&c));
         self.committed = c;
         self.has_trial = false;
-        r.map(|_| ()).map_err(|index| SetupNdError::OutsideBox {
+        r.map(|_| ()).map_err(|index| SetupError::OutsideBox {
             index,
             axis: 0,
             x: self.committed.x[index][0],

@@ -4,7 +4,7 @@
 use super::{CarriedNd, ModuliNd, SolverNd, Split, StateNd, INACTIVE_MASS_RATIO};
 use crate::nd::{GridNd, MaterialNd, ShapeNd, Tensor, Vector};
 use crate::reduce::Reduce;
-use crate::testbench::nd::particles::{ParticlesNd, SetupNdError};
+use crate::testbench::nd::particles::{ParticlesNd, SetupError};
 use crate::testbench::nd::slab::SlabNd;
 use crate::testbench::nd::threaded::ThreadScratch;
 use std::rc::Rc;
@@ -17,7 +17,7 @@ impl<const D: usize> SolverNd<D> {
         shape: ShapeNd,
         particles: ParticlesNd<D>,
         gravity: Vector<D>,
-    ) -> Result<Self, SetupNdError> {
+    ) -> Result<Self, SetupError> {
         let (min_mass, n) = checked(&particles, &grid, shape)?;
         let ids = (0..n as u64).collect();
         Self::build(
@@ -50,7 +50,7 @@ impl<const D: usize> SolverNd<D> {
         particles: ParticlesNd<D>,
         gravity: Vector<D>,
         reduce: Rc<dyn Reduce>,
-    ) -> Result<Self, SetupNdError> {
+    ) -> Result<Self, SetupError> {
         let (min_mass, n) = checked(&particles, &grid, shape)?;
         let block: Vec<usize> =
             ParticlesNd::<D>::block_range(n, reduce.rank(), reduce.size()).collect();
@@ -77,7 +77,7 @@ impl<const D: usize> SolverNd<D> {
         particles: ParticlesNd<D>,
         gravity: Vector<D>,
         reduce: Rc<dyn Reduce>,
-    ) -> Result<Self, SetupNdError> {
+    ) -> Result<Self, SetupError> {
         let (min_mass, n) = checked(&particles, &grid, shape)?;
         let slab = SlabNd::new(grid, Rc::clone(&reduce))?;
         let mine: Vec<usize> = (0..n)
@@ -108,9 +108,9 @@ impl<const D: usize> SolverNd<D> {
         min_mass: f64,
         split: Split<D>,
         n_total: usize,
-    ) -> Result<Self, SetupNdError> {
+    ) -> Result<Self, SetupError> {
         if gravity.iter().any(|g| !g.is_finite()) {
-            return Err(SetupNdError::Gravity);
+            return Err(SetupError::Gravity);
         }
         let n = particles.len();
         let constrained = match split.slab() {
@@ -172,7 +172,7 @@ impl<const D: usize> SolverNd<D> {
         let mut c = std::mem::take(&mut solver.committed);
         solver
             .derive_state(&mut c, false)
-            .map_err(|index| SetupNdError::OutsideBox {
+            .map_err(|index| SetupError::OutsideBox {
                 index,
                 axis: 0,
                 x: c.x[index][0],
@@ -188,7 +188,7 @@ fn checked<const D: usize>(
     particles: &ParticlesNd<D>,
     grid: &GridNd<D>,
     shape: ShapeNd,
-) -> Result<(f64, usize), SetupNdError> {
+) -> Result<(f64, usize), SetupError> {
     particles.validate(grid, shape)?;
     let min_mass = particles.mass.iter().copied().fold(f64::INFINITY, f64::min);
     Ok((min_mass, particles.len()))
