@@ -76,7 +76,7 @@
 //! |---|---|---|
 //! | state a limit reads | [`View`] (`S`, `D` matrices, [`weights`]) | [`ViewNd`] ([`nd::WeightsNd`], optional [`nd::SummaryNd`] from the stepper's pass) |
 //! | sound speed (eq 49) | [`sound_speed::SoundSpeed`], one limit: its 1D kernel in [`stability::sound_speed`] | the same limit: its 2D/3D kernel in [`limits_nd::sound_speed`] |
-//! | stability (eq 56) | [`stability::Stability`]: certified tracker, eq 58 | [`limits_nd::StabilityNd`]: Lanczos with a motion guard, the element bound |
+//! | stability (eqs 56–58) | [`stability::limit::Stability<1>`](stability::limit::Stability) (`stability::Stability`; certified tracker on the `K_N` band, eq 58, [`stability::one_d`]) | [`stability::limit::Stability<D>`](stability::limit::Stability) (`limits_nd::StabilityNd`; Lanczos with a motion guard, the element bound, [`limits_nd::stability`]) — one limit, its rule per dimension |
 //! | temporal error (eqs 20–30) | [`temporal::TemporalError<1>`] (`controller::TemporalError`; SIMD kernels, [`controller::RateKernels`]) | [`temporal::TemporalError<D>`] (`limits_nd::TemporalErrorNd`; threaded sweep, [`limits_nd::RateSweeps`]) — one limit, its estimator per dimension |
 //! | growth monitor | [`growth::Growth<1>`] (`GrowthMonitor`; checkerboard share, [`growth::one_d`]) | [`growth::Growth<D>`] (`GrowthNd`; energy, [`growth::nd`]) — one limit, its rule per dimension |
 //! | the standard controller | [`controller::Controller::standard`] (`Controller::<1>`) | [`controller::Controller::standard`] (`Controller::<2>`, `Controller::<3>`; gravity from `config.gravity`), or [`controller::standard_limits`] + [`controller::Controller::new`] |

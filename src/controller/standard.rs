@@ -4,13 +4,14 @@
 //! One config builds the same four limits in every dimension, in this order: the sound-speed
 //! cap (eq 49 with the particle speed), the stability limit (eqs 56–58), the temporal error
 //! (eqs 20–30) and the growth monitor, each as the config enables and sets it. The
-//! sound-speed cap is one limit for every dimension; for the others the implementation
-//! behind each name differs by dimension, chosen by [`StandardLimits`]:
+//! sound-speed cap is one limit for every dimension; the stability limit, the temporal error
+//! and the growth monitor are one limit each whose rule differs by dimension, chosen by
+//! [`StandardLimits`]:
 //!
 //! | limit | 1D | 2D and 3D |
 //! |---|---|---|
 //! | sound speed | [`crate::sound_speed::SoundSpeed`] | the same |
-//! | stability | [`crate::stability::Stability`] | [`crate::limits_nd::StabilityNd`] |
+//! | stability | [`crate::stability::limit::Stability<1>`](crate::stability::limit::Stability) | [`crate::stability::limit::Stability<D>`](crate::stability::limit::Stability) |
 //! | temporal error | [`crate::temporal::TemporalError<1>`] | [`crate::temporal::TemporalError<D>`] |
 //! | growth | [`crate::growth::Growth<1>`] | [`crate::growth::Growth<D>`] (with `config.gravity`) |
 //!

@@ -2,7 +2,9 @@
 //!
 //! * [`crate::sound_speed::SoundSpeed`] — `α · min_p min_a h_a/(c_p + |v_a|)` (eq 49
 //!   generalised; one limit for every dimension, its 2D/3D kernel in [`sound_speed`]);
-//! * [`StabilityNd`] — `safety · √(2/λmax(M⁻¹K))` (eq 56 generalised, [`stiffness`]),
+//! * [`StabilityNd`] — `safety · √(2/λmax(M⁻¹K))` (eq 56 generalised, [`stiffness`]; the
+//!   one stability limit of every dimension, [`crate::stability::limit::Stability<D>`],
+//!   with the rule [`GuardedEq56`]),
 //!   `λmax` refreshed by Lanczos only when particles have moved or moduli changed enough,
 //!   or stepped on the guaranteed element bound ([`element_bound`]) where that is close
 //!   ([`bound_tracking`]);
@@ -61,8 +63,9 @@ mod temporal_sweep;
 pub mod transfer;
 
 pub use crate::sound_speed::SOUND_SPEED;
+pub use crate::stability::limit::StabilityNd;
 pub use growth::{GrowthNd, GROWTH};
-pub use stability::{StabilityNd, STABILITY};
+pub use stability::{GuardedEq56, STABILITY};
 pub use stability_config::StabilityNdConfig;
 pub use temporal_error::{RateSweeps, TemporalErrorNd};
 pub use transfer::{apic_gain, TransferNd};

@@ -1,5 +1,9 @@
-//! [`StabilityNd`]: the eq 56 stability limit in d dimensions, `dt = safety · √(2/λmax)`
-//! with `λmax = λmax(M⁻¹K)` ([`super::stiffness`]) tracked on the evolving state.
+//! [`GuardedEq56<D>`]: the rule of the eq 56 stability limit in two and three dimensions,
+//! [`Stability<D>`](crate::stability::limit::Stability) ([`super::StabilityNd<D>`]),
+//! `dt = safety · √(2/λmax)` with `λmax = λmax(M⁻¹K)` ([`super::stiffness`]) tracked on the
+//! evolving state. The limit itself — the safety, its lowering after growth, the proposal
+//! and the checkpoint framing — is the one of every dimension ([`crate::stability::limit`]);
+//! this rule tracks `λmax` and accepts every trial.
 //!
 //! # What is recomputed, and when
 //!
@@ -87,26 +91,27 @@ mod guard;
 mod guard_scan;
 pub mod on_summary;
 mod policy;
+mod rule;
 pub use on_summary::SUMMARY_CHECK_EVERY;
 
-use super::bound_tracking::{view_supplies_bound, BoundTracking};
+use super::bound_tracking::view_supplies_bound;
 use super::stability_config::StabilityNdConfig;
 use super::start::checkerboard_start;
 use super::stiffness::{diagonal_argmax, lanczos_on, NodalSpace};
 use super::transfer::{apic_gain, TransferNd};
-use crate::config_error::ConfigError;
-use crate::dimension::{Dim, Dimension};
-use crate::limit::{LimitError, Metrics, Proposal, StepLimit};
+#[cfg(doc)]
+use crate::limit::StepLimit;
+use crate::limit::{LimitError, Metrics};
 use crate::nd::ViewNd;
 use crate::reduce::{Reduce, SingleProcess};
+pub use crate::stability::limit::STABILITY;
+pub use checkpoint::TrackedNd;
 use guard::Staleness;
 use std::rc::Rc;
 
-/// Name in logs: `"stability"`.
-pub const STABILITY: &str = "stability";
-
-/// The tracked eq 56 limit in d dimensions: how `λmax` is tracked, refreshed and checked
-/// is in the [module docs](self).
+/// The rule of the 2D/3D stability limit,
+/// [`Stability<D>`](crate::stability::limit::Stability) ([`super::StabilityNd<D>`]): how
+/// `λmax` is tracked, refreshed and checked is in the [module docs](self).
 ///
 /// # Memory
 ///
@@ -121,79 +126,27 @@ pub const STABILITY: &str = "stability";
 /// products' bits are the same, [`super::stiffness::lanczos_on`]).
 /// [`StepLimit::memory_bytes`] sums what is held between calls.
 #[derive(Clone, Debug)]
-pub struct StabilityNd<const D: usize> {
+pub struct GuardedEq56<const D: usize> {
+    /// The settings; their safety is the configured one, the largest a restored
+    /// checkpoint may carry (the limit holds the current one).
     config: StabilityNdConfig,
-    safety: f64,
-    lambda: Option<f64>,
-    ritz: Vec<f64>,
-    /// Positions at the refresh, in single precision ([`guard`]).
-    x_ref: Vec<[f32; D]>,
-    /// `(V(dλ_t + 2μ_t), Vμ_t)` per particle at the refresh.
-    moduli_ref: Vec<(f64, f64)>,
-    /// Smallest active nodal mass at the refresh.
-    mass_ref: f64,
-    /// `max diag(A)` at the refresh ([`super::stiffness::diagonal_argmax`]).
-    diag_ref: f64,
-    /// Growth of `max diag(A)` accepted without a refresh since the last one (≥ 1).
-    diag_growth: f64,
-    /// `1 + p` of the scheme's transfer on the tracked top mode (1 for FLIP; `λmax/λ*`
-    /// with [`StabilityNdConfig::full_map`]).
-    gain: f64,
-    age: u32,
-    refreshes: u64,
-    applications: u64,
-    /// When proposals use the element bound instead ([`super::bound_tracking`]).
-    tracking: BoundTracking,
-    /// Lanczos products of the last refresh when it was warm-started (a cold start's are
-    /// not what tracking costs).
-    last_products: Option<u64>,
-    /// What proposals on summary-only views carry from the last check ([`on_summary`]).
-    on_summary: on_summary::OnSummary,
+    /// What the limit tracks between proposals, and a checkpoint saves ([`TrackedNd`]).
+    tracked: TrackedNd<D>,
     /// The run's reductions ([`StepLimit::set_reduce`]).
     reduce: Rc<dyn Reduce>,
     /// Threads for the layout guard's pass ([`StepLimit::set_threads`]).
     pool: Option<std::sync::Arc<rayon::ThreadPool>>,
 }
 
-impl<const D: usize> StabilityNd<D> {
-    /// A limit with `config`, checked ([`StabilityNdConfig::validate`]: a [`ConfigError`]).
-    pub fn new(config: StabilityNdConfig) -> Result<Self, ConfigError> {
-        config.validate()?;
-        Ok(Self::unchecked(config))
-    }
-
-    /// A limit with `config` not checked (for builders whose caller validates it).
-    pub(crate) fn unchecked(config: StabilityNdConfig) -> Self {
+impl<const D: usize> GuardedEq56<D> {
+    /// A rule with `config` not checked.
+    fn unchecked(config: StabilityNdConfig) -> Self {
         Self {
-            safety: config.safety,
             config,
-            lambda: None,
-            ritz: Vec::new(),
-            x_ref: Vec::new(),
-            moduli_ref: Vec::new(),
-            mass_ref: 0.0,
-            diag_ref: 0.0,
-            diag_growth: 1.0,
-            gain: 1.0,
-            age: 0,
-            refreshes: 0,
-            applications: 0,
-            tracking: BoundTracking::default(),
-            last_products: None,
-            on_summary: on_summary::OnSummary::default(),
+            tracked: TrackedNd::default(),
             reduce: Rc::new(SingleProcess),
             pool: None,
         }
-    }
-
-    /// The tracked bound on `λmax(M⁻¹K)`, once computed.
-    pub fn lambda_max(&self) -> Option<f64> {
-        self.lambda
-    }
-
-    /// Lanczos refreshes so far.
-    pub fn refreshes(&self) -> u64 {
-        self.refreshes
     }
 
     /// The reductions the processes agree with: a decomposed view's own
@@ -225,10 +178,11 @@ impl<const D: usize> StabilityNd<D> {
         let global = |c: usize| space.global(c / D) * D + c % D;
         let n_global = (space.global_nodes() * D) as f64;
         let (diag_max, diag_at) = diag.unwrap_or_else(|| diagonal_argmax(view, &*self.reduce));
-        let warm = self.ritz.len() == n;
+        let warm = self.tracked.ritz.len() == n;
         let mut start: Vec<f64> = if warm {
             // Warm start, nudged so that it is never orthogonal to a new top mode.
-            self.ritz
+            self.tracked
+                .ritz
                 .iter()
                 .enumerate()
                 .map(|(i, v)| {
@@ -273,41 +227,21 @@ impl<const D: usize> StabilityNd<D> {
             TransferNd::Flip if self.config.full_map => self.full_map_gain(view, &r),
             TransferNd::Flip => (1.0, 0),
             // A fluid under APIC steps on eq 56 itself (`policy`, "fluids").
-            TransferNd::Apic { .. } if self.tracking.fluid_seen => (1.0, 0),
+            TransferNd::Apic { .. } if self.tracked.tracking.fluid_seen => (1.0, 0),
             TransferNd::Apic { inertia } => (apic_gain(view, &space, &r.vector, inertia), 0),
         };
-        self.gain = gain;
-        self.ritz = r.vector;
+        self.tracked.gain = gain;
+        self.tracked.ritz = r.vector;
         self.store_references(view);
-        self.mass_ref = m_min;
-        self.diag_ref = diag_max;
-        self.diag_growth = 1.0;
-        self.age = 0;
-        self.refreshes += 1;
-        self.applications += r.applications as u64;
-        self.last_products = warm.then_some(r.applications as u64 + extra_products);
-        self.lambda = Some(lambda);
-        let threshold = self.bound_threshold(view);
-        let look = bound.is_some()
-            || self.calibrating()
-            || self.config.bound_slack >= 0.0
-                && self
-                    .tracking
-                    .worth_a_look(threshold, view_supplies_bound(view));
-        if look {
-            let bound = match bound {
-                Some(b) => b,
-                None => self
-                    .tracking
-                    .bound_of(view, Self::agreement(&*self.reduce, view)),
-            };
-            self.tracking.after_refresh(lambda, bound, threshold);
-            if self.calibrating() {
-                self.tracking.calibrate(lambda, bound);
-            }
-        } else {
-            self.tracking.skipped_refresh();
-        }
+        self.tracked.mass_ref = m_min;
+        self.tracked.diag_ref = diag_max;
+        self.tracked.diag_growth = 1.0;
+        self.tracked.age = 0;
+        self.tracked.refreshes += 1;
+        self.tracked.applications += r.applications as u64;
+        self.tracked.last_products = warm.then_some(r.applications as u64 + extra_products);
+        self.tracked.lambda = Some(lambda);
+        self.bound_after_refresh(view, lambda, bound);
         Ok(lambda)
     }
 
@@ -321,8 +255,8 @@ impl<const D: usize> StabilityNd<D> {
         let mut diag = None;
         let supplied = view_supplies_bound(state);
         let calibrated = self.calibrating()
-            && self.tracking.reference.is_some()
-            && self.age < self.config.bound_age;
+            && self.tracked.tracking.reference.is_some()
+            && self.tracked.age < self.config.bound_age;
         // With the bound supplied every step, the calibrated bound watches the layout and
         // the positions are not read; on the generic path a particle's motion calls for
         // the bound's pass, and on a split grid for a refresh, as before.
@@ -344,25 +278,27 @@ impl<const D: usize> StabilityNd<D> {
         let (neg_growth, stale) = Self::agreement(&*self.reduce, state)
             .min_and_any(-growth.unwrap_or(1.0), growth.is_none() || moved_is_stale);
         let agreed = (!stale).then_some(-neg_growth);
-        self.on_summary.checked(agreed.unwrap_or(1.0));
+        self.tracked.on_summary.checked(agreed.unwrap_or(1.0));
         let mut looked = None;
-        if let (Some(growth), Some(cached)) = (agreed, self.lambda) {
+        if let (Some(growth), Some(cached)) = (agreed, self.tracked.lambda) {
             if !(calibrated && (supplied || moved)) {
-                self.tracking.calibrated_proposals += u64::from(calibrated);
-                return Ok((cached * growth.max(self.tracking.scale), false));
+                self.tracked.tracking.calibrated_proposals += u64::from(calibrated);
+                return Ok((cached * growth.max(self.tracked.tracking.scale), false));
             }
             let bound = self
+                .tracked
                 .tracking
                 .bound_of(state, Self::agreement(&*self.reduce, state));
             if let Some(s) = self
+                .tracked
                 .tracking
                 .calibrated_scale(bound, self.config.bound_drift)
             {
                 if moved {
                     self.reanchor_positions(state);
-                    self.tracking.scale = s;
+                    self.tracked.tracking.scale = s;
                 }
-                self.tracking.calibrated_proposals += 1;
+                self.tracked.tracking.calibrated_proposals += 1;
                 return Ok((cached * growth.max(s), false));
             }
             looked = Some(bound);
@@ -370,26 +306,30 @@ impl<const D: usize> StabilityNd<D> {
         if looked.is_some() {
             return Ok((self.refresh(state, m_min, diag, looked)?, true));
         }
-        if let Some(products) = self.last_products.filter(|_| self.age > 0) {
+        if let Some(products) = self.tracked.last_products.filter(|_| self.tracked.age > 0) {
             // An interval between refreshes ended: what its refresh cost per proposal.
-            self.tracking.lanczos_rate = Some(products as f64 / f64::from(self.age));
+            self.tracked.tracking.lanczos_rate =
+                Some(products as f64 / f64::from(self.tracked.age));
         }
         let threshold = self.bound_threshold(state);
-        let look = self.age < self.config.bound_age
+        let look = self.tracked.age < self.config.bound_age
             && !self.calibrating()
             && self.config.bound_slack >= 0.0
             && self
+                .tracked
                 .tracking
                 .worth_a_look(threshold, view_supplies_bound(state));
-        if let Some(cached) = self.lambda.filter(|_| look) {
+        if let Some(cached) = self.tracked.lambda.filter(|_| look) {
             let bound = self
+                .tracked
                 .tracking
                 .bound_of(state, Self::agreement(&*self.reduce, state));
             if self
+                .tracked
                 .tracking
                 .take_instead_of_refresh(bound, cached, threshold)
             {
-                self.tracking.bound_proposals += 1;
+                self.tracked.tracking.bound_proposals += 1;
                 return Ok((bound, false));
             }
             looked = Some(bound);
@@ -401,93 +341,31 @@ impl<const D: usize> StabilityNd<D> {
     fn proposal_metrics(&self, lambda: f64, refreshed: bool) -> Metrics {
         let mut metrics = Metrics::new();
         if refreshed {
-            metrics.insert("refreshes".into(), self.refreshes as f64);
-            metrics.insert("lanczos_applications".into(), self.applications as f64);
-            if let Some(r) = self.tracking.last_ratio {
+            metrics.insert("refreshes".into(), self.tracked.refreshes as f64);
+            metrics.insert(
+                "lanczos_applications".into(),
+                self.tracked.applications as f64,
+            );
+            if let Some(r) = self.tracked.tracking.last_ratio {
                 metrics.insert("bound_ratio".into(), r);
             }
         }
-        if self.tracking.active {
+        if self.tracked.tracking.active {
             metrics.insert(
                 "bound_proposals".into(),
-                self.tracking.bound_proposals as f64,
+                self.tracked.tracking.bound_proposals as f64,
             );
         }
-        if self.tracking.calibrated_proposals > 0 {
+        if self.tracked.tracking.calibrated_proposals > 0 {
             metrics.insert(
                 "calibrated_proposals".into(),
-                self.tracking.calibrated_proposals as f64,
+                self.tracked.tracking.calibrated_proposals as f64,
             );
         }
         metrics.insert(crate::limit::metric::LAMBDA_MAX.into(), lambda);
         if self.config.transfer != TransferNd::Flip || self.config.full_map {
-            metrics.insert("transfer_gain".into(), self.gain);
+            metrics.insert("transfer_gain".into(), self.tracked.gain);
         }
         metrics
-    }
-}
-
-impl<const D: usize> StepLimit<D> for StabilityNd<D>
-where
-    Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
-{
-    fn name(&self) -> &str {
-        STABILITY
-    }
-
-    fn propose(&mut self, state: &ViewNd<'_, D>) -> Result<Proposal, LimitError> {
-        let (lambda, refreshed, on_bound) = match self.bound_proposal(state) {
-            Some(bound) => {
-                self.tracking.bound_proposals += 1;
-                (bound, false, true)
-            }
-            // A stepper handing over its arrays on demand ([`on_summary`]).
-            None if !state.holds_arrays() => (self.summary_lambda(state)?, false, false),
-            None => {
-                let (lambda, refreshed) = self.tracked_lambda(state)?;
-                (lambda, refreshed, false)
-            }
-        };
-        self.age += 1;
-        Ok(Proposal {
-            dt: self.safety * (2.0 * self.proposal_gain(on_bound) / lambda).sqrt(),
-            metrics: self.proposal_metrics(lambda, refreshed),
-        })
-    }
-
-    fn scale_safety(&mut self, factor: f64) {
-        if factor.is_finite() && factor > 0.0 {
-            self.safety *= factor;
-        }
-    }
-
-    /// Only a proposal reads the arrays, and on a summary-only view only when it cannot be
-    /// made from the summary ([`on_summary`]).
-    fn reads_arrays(&self, call: crate::limit::LimitCall, state: &ViewNd<'_, D>) -> bool {
-        call == crate::limit::LimitCall::Propose && !self.serves_on_summary(state)
-    }
-
-    fn set_reduce(&mut self, reduce: Rc<dyn Reduce>) {
-        self.reduce = reduce;
-    }
-
-    /// The tracked `λmax`, its warm start, the guard's references and the safety
-    /// (`checkpoint` module).
-    fn save_state(&self) -> Option<serde_json::Value> {
-        self.saved()
-    }
-
-    fn restore_state(&mut self, state: &serde_json::Value) -> Result<(), LimitError> {
-        self.restore(state)
-    }
-
-    fn set_threads(&mut self, pool: Option<std::sync::Arc<rayon::ThreadPool>>) {
-        self.pool = pool;
-    }
-
-    fn memory_bytes(&self) -> usize {
-        self.x_ref.capacity() * std::mem::size_of::<[f32; D]>()
-            + self.moduli_ref.capacity() * std::mem::size_of::<(f64, f64)>()
-            + self.ritz.capacity() * std::mem::size_of::<f64>()
     }
 }

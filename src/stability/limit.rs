@@ -1,454 +1,298 @@
-//! The `Stability` step limit: the tracked eq 56 critical step, checked by eq 58.
+//! The stability limit, one [`StepLimit`] for every dimension: [`Stability<D>`] proposes a
+//! fraction `safety` of the frozen-particle critical step of eq 56,
 //!
 //! ```text
-//! propose:  dt = safety · dt_eq56,   dt_eq56 = √(2/λmax(B)) = h √(2/(c²_ref λ̂))    (eq 56)
-//! judge:    reject if  bound58_W(trial, dt) > 1 + tol                               (eq 58)
-//!           or if      dt > (1 + tol) dt_eq56            (a violated stability proposal)
+//! dt = safety · dt_crit,    dt_crit = √(2/λmax)            (eq 56)
 //! ```
 //!
-//! `λmax(B)` is tracked on the *nodal* form of the operator, `C = M^{1/2} K_N M^{1/2}`
-//! ([`NodalOperator`], same λmax, `n_nodes` unknowns, banded), with `K_N` from the stepper (or
-//! assembled from the `D` weights when the stepper does not provide it). The default
-//! [`Tracking::Certified`] ([`CertifiedTracker`]) serves each proposal from one fused pass over
-//! the nodes (a generalised Rayleigh quotient and a power step) and certifies the value by an
-//! `LDLᵀ` inertia test every 20 proposals or when the pass looks suspicious; Lanczos runs only
-//! when a certificate fails. [`Tracking::Lanczos`] is the previous default: a warm-started
-//! Lanczos update ([`LambdaMaxTracker`]) at every proposal or on [`Refresh`] thresholds.
-//! The eq 58 value is the
-//! [`Bound58Reading::Consistent`] reading in the strain-energy norm (default): it is a true
-//! lower bound on `ρ(A)`, so a value above 1 *proves* the step's stress amplification
-//! unstable — but it stays near 1 while `ρ(A)` grows (see [`mod@super::bound58`]), which is why
-//! the proposal, not the bound, does the real work.
+//! with `λmax` the largest eigenvalue of the dimension's stiffness operator (`B = D*F` on the
+//! particles, or its nodal form `M^{1/2} K_N M^{1/2}`, in 1D; `M⁻¹K` on the nodal velocity
+//! components in 2D/3D; the same `λmax`), tracked along the run.
 //!
-//! The eq 58 value is computed on the *trial* state (its stress field, layout and moduli) at
-//! the trial's `dt`: the amplification the trial's stress error would see over one more step
-//! of the same size. A trial whose stress has no curvature (`Δσ = 0`) carries no information
-//! and is not rejected by eq 58.
+//! The limit is written once, here: the safety factor and its lowering after a growth
+//! detection ([`StepLimit::scale_safety`], by a factor in `(0, 1]`), the proposal
+//! `safety · dt_crit`, the name `"stability"`, and the checkpoint framing — the safety next
+//! to the tracked state, refused on restore where it is not in `(0, ceiling]`
+//! ([`StabilityRule::safety_ceiling`]) — with the hooks of the run (reductions, threads, the
+//! memory held, which arrays a call reads) passed on. How `λmax` is tracked, which metrics
+//! a proposal reports, and whether a trial is judged are the dimension's ([`StabilityDim`], a
+//! [`StabilityRule`]):
 //!
-//! # When λmax is recomputed in [`Tracking::Lanczos`] mode ([`Refresh`])
+//! | `D` | rule | tracks `λmax` by | judges a trial by | file |
+//! |---|---|---|---|---|
+//! | 1 | [`BandedEq56`](super::one_d::BandedEq56) | the certified tracker (`LDLᵀ` inertia) or Lanczos on the `K_N` band | eq 58 on a cadence, and the proposal check `dt ≤ (1 + tol) dt_eq56` | [`super::one_d`] |
+//! | 2, 3 | [`GuardedEq56<D>`](crate::limits_nd::stability::GuardedEq56) | Lanczos behind a motion guard, the element bound, the APIC and full-map gains | — (accepts) | [`crate::limits_nd::stability`] |
 //!
-//! [`Refresh::every_step`] updates λmax at every proposal. [`Refresh::cached`] is an *opt-in*
-//! cheaper mode: it re-runs Lanczos only when the
-//! state has drifted from the one of the last update — some particle moved more than
-//! `max_displacement · h`, some active nodal mass changed by more than the relative
-//! `max_mass_change` (or a node switched between active and inactive), some `E_t,p V_p`
-//! changed by more than `max_modulus_change`, or `max_steps` proposals have passed.
-//!
-//! **Known failure of the cached mode** (why it is not the default): on the linear-hat
-//! small-mass scenario of the comparison suite (`scenarios/suite/linear_small_mass.json`) it
-//! blew up at t = 0.58 while every-step tracking finished: as a nodal mass collapses, λ̂ jumps
-//! from about 22 to about 5000 within one step, and a warm-started update from the old
-//! eigenvector can converge to the old, still-valid eigenpair instead of the new top one; the
-//! cold restarts every 10 updates that rescue every-step tracking then come 10 *updates*, not
-//! 10 steps, apart. Use it on GIMP layouts, where λmax barely moves. (Measured before the
-//! tracker gained its diagonal lower-bound guard, see [`super::lambda_max::WARM_BLEND`]; with
-//! it the same cached run finishes, 474 steps and 3 rejections — one scenario, no proof.)
-//!
-//! # Cost, and why eq 58 is checked on a cadence
-//!
-//! At 10⁵ particles (GIMP, 2 per cell; `cargo bench --bench stability`, README "Stability")
-//! assembling `K_N` from a view's weights costs about one reference solver step, which is why
-//! the reference solver accumulates it in its own pass instead (the limit then only reads it).
-//! The certified tracking's served proposal is one pass over the nodes; its `LDLᵀ`
-//! certificate costs about a fifth of a solver step, every 20 proposals; a Lanczos update per
-//! proposal (the previous default) cost most of a solver step. Eq 58 needs the Section 4
-//! estimates (nodal second and third derivatives of the stress, the weights' moments), about
-//! three solver steps per evaluation, while it can only certify instability (it stays near 1
-//! while `ρ(A)` grows). It is therefore evaluated on the trial of every
-//! [`StabilityConfig::bound58_every`]-th proposal (default 50: the first trial of a run, then
-//! every 50th), which keeps its share near 6 % of a step; set it to 1 to check every trial,
-//! as the paper's "track stability automatically" suggests, at that price.
-//!
-//! The safety factor can be changed at run time ([`Stability::set_safety`]): the controller's
-//! growth monitor lowers it when it sees the slow instability of moving particles.
+//! The older names stay: [`crate::stability::Stability`] (without a parameter) is
+//! `Stability<1>` and [`crate::limits_nd::StabilityNd<D>`] is `Stability<D>`; both are built
+//! by `new` from their dimension's settings ([`StabilitySettings`]: [`StabilityConfig`](super::StabilityConfig) in 1D,
+//! [`crate::limits_nd::StabilityNdConfig`] in 2D/3D).
 
-use super::bound58::{bound58, Bound58Reading};
-use super::certified::{CertifiedConfig, CertifiedEstimate, CertifiedState, CertifiedTracker};
-use super::error::StabilityError;
-use super::lambda_max::{LambdaEstimate, LambdaMaxTracker, LanczosConfig};
-use super::nodal::NodalOperator;
-use crate::limit::{Judgement, LimitError, Metrics, Proposal, RejectCause, StepLimit, Verdict};
-use crate::stepper::View;
-pub use refresh::Refresh;
-use refresh::RefreshReference;
+use crate::dimension::{Dim, Dimension};
+use crate::limit::{Judgement, LimitCall, LimitError, Metrics, Proposal, StepLimit};
+use serde::de::DeserializeOwned;
+use serde::{Deserialize, Serialize};
+use std::borrow::Cow;
 
-mod refresh;
+/// The name of the limit in logs and statistics: `"stability"`.
+pub const STABILITY: &str = "stability";
 
-/// Settings of [`Stability`].
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct StabilityConfig {
-    /// Fraction of `dt_eq56` proposed, in `(0, 1]` (default 0.9). Eq 56 is already
-    /// conservative for frozen particles (it ignores the velocity half of the state: up to
-    /// ~8 % below the exact frozen critical step); the margin covers moving particles.
-    pub safety: f64,
-    /// Relative tolerance of the eq 58 test and of the proposal check (default `1e-6`).
-    pub tol: f64,
-    /// Which reading of eq 58 judges trials (default [`Bound58Reading::Consistent`]).
-    pub reading: Bound58Reading,
-    /// The Lanczos settings of the λmax iteration.
-    pub lanczos: LanczosConfig,
-    /// How λmax is tracked (default [`Tracking::Certified`]; see the module docs).
-    pub tracking: Tracking,
-    /// Eq 58 is evaluated on the trial of every `bound58_every`-th proposal (default 50;
-    /// 1 checks every trial, 0 never). See "Cost" in the module docs for why it is not
-    /// checked at every step by default.
-    pub bound58_every: u32,
+/// What a rule's proposal gives: the critical step `dt_crit = √(2/λmax)` (eq 56, with the
+/// dimension's gains) that the limit multiplies by its safety, and the proposal's metrics.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Critical {
+    /// The critical step `dt_crit`.
+    pub dt: f64,
+    /// The metrics of the proposal (`λmax` and how it was obtained).
+    pub metrics: Metrics,
 }
 
-/// How the [`Stability`] limit follows `λmax` from step to step (module docs).
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
-#[serde(rename_all = "snake_case", deny_unknown_fields)]
-pub enum Tracking {
-    /// A Rayleigh quotient and a power step per proposal (one pass over the nodes), certified
-    /// by an `LDLᵀ` inertia test every 20 proposals or when it looks stale, with Lanczos only
-    /// when a certificate fails ([`CertifiedTracker`]). The default.
-    Certified(CertifiedConfig),
-    /// The Lanczos Ritz value (a lower bound on `λmax`), recomputed as [`Refresh`] says.
-    Lanczos(Refresh),
-}
+/// How the stability limit of one dimension `T` (a [`Dim`]) tracks `λmax` and judges a
+/// trial: the dimension-specific half of [`Stability`] (module docs). The rule keeps its own
+/// tracked state between steps; [`Stability`] holds the safety and calls the rule in the
+/// order of the [`StepLimit`] calls.
+pub trait StabilityRule<T: Dimension>: Clone + std::fmt::Debug {
+    /// The tracked state a checkpoint saves, next to the safety.
+    type State: Clone + Serialize + DeserializeOwned;
 
-impl Default for Tracking {
-    fn default() -> Self {
-        Self::Certified(CertifiedConfig::default())
+    /// The critical step of eq 56 for the committed `state` (and the metrics of how `λmax`
+    /// was obtained); `safety` is the limit's current one, for the metrics and logs.
+    fn critical(&mut self, state: &T::View<'_>, safety: f64) -> Result<Critical, LimitError>;
+
+    /// Judges a trial of step `dt` from `before` to `after`; a rejection suggests
+    /// `safety · dt_crit`. Default: accepts.
+    fn judge(
+        &mut self,
+        before: &T::View<'_>,
+        after: &T::View<'_>,
+        dt: f64,
+        safety: f64,
+    ) -> Result<Judgement, LimitError> {
+        let _ = (before, after, dt, safety);
+        Ok(Judgement::accept())
+    }
+
+    /// The largest safety a restored state may carry.
+    fn safety_ceiling(&self) -> f64;
+
+    /// The tracked state for a checkpoint.
+    fn state(&self) -> Cow<'_, Self::State>;
+
+    /// Restores a state of [`StabilityRule::state`]; a state that does not belong together
+    /// is refused with what is wrong, and the rule is left as it was.
+    fn restore(&mut self, state: Self::State) -> Result<(), &'static str>;
+
+    /// [`StepLimit::reads_nodal_stiffness`] (default `false`).
+    fn reads_nodal_stiffness(&self) -> bool {
+        false
+    }
+
+    /// [`StepLimit::reads_element_bound`] (default `false`).
+    fn reads_element_bound(&self) -> bool {
+        false
+    }
+
+    /// [`StepLimit::reads_arrays`] (default `true`).
+    fn reads_arrays(&self, call: LimitCall, state: &T::View<'_>) -> bool {
+        let _ = (call, state);
+        true
+    }
+
+    /// [`StepLimit::set_reduce`] (default: nothing).
+    fn set_reduce(&mut self, reduce: std::rc::Rc<dyn crate::reduce::Reduce>) {
+        let _ = reduce;
+    }
+
+    /// [`StepLimit::set_threads`] (default: nothing).
+    fn set_threads(&mut self, pool: Option<std::sync::Arc<rayon::ThreadPool>>) {
+        let _ = pool;
+    }
+
+    /// Bytes of heap memory the rule holds between calls (default: 0).
+    fn memory_bytes(&self) -> usize {
+        0
     }
 }
 
-impl Default for StabilityConfig {
-    fn default() -> Self {
-        Self {
-            safety: 0.9,
-            tol: 1e-6,
-            reading: Bound58Reading::Consistent,
-            lanczos: LanczosConfig::default(),
-            tracking: Tracking::default(),
-            bound58_every: 50,
-        }
-    }
+/// The dimension's [`StabilityRule`]: implemented for `Dim<1>` ([`BandedEq56`](super::one_d::BandedEq56)) and for every
+/// `Dim<D>` whose view is a [`crate::nd::ViewNd`], `Dim<2>` and `Dim<3>`
+/// ([`crate::limits_nd::stability::GuardedEq56`]).
+pub trait StabilityDim: Dimension + Sized {
+    /// The rule of the stability limit in this dimension.
+    type Rule: StabilityRule<Self>;
 }
 
-fn check_safety(safety: f64) -> Result<(), StabilityError> {
-    if safety > 0.0 && safety <= 1.0 {
-        Ok(())
-    } else {
-        Err(StabilityError::InvalidConfig {
-            field: "safety",
-            value: safety,
-            reason: "must be in (0, 1]",
-        })
-    }
+/// The rule of dimension `D`.
+pub(crate) type RuleOf<const D: usize> = <Dim<D> as StabilityDim>::Rule;
+
+/// The settings a stability limit of dimension `D` is built from: [`super::StabilityConfig`] for
+/// `D = 1`, [`crate::limits_nd::StabilityNdConfig`] for `D = 2, 3` (so `Stability::new` of a
+/// 1D config needs no dimension written).
+pub trait StabilitySettings<const D: usize>
+where
+    Dim<D>: StabilityDim,
+{
+    /// Why settings are refused.
+    type Error;
+
+    /// The limit with these settings, validated.
+    fn build(self) -> Result<Stability<D>, Self::Error>;
 }
 
-/// The stability limit (eqs 56 and 58). `Stability::default()` is `Stability::new` with
-/// [`StabilityConfig::default`].
-#[derive(Clone, Debug, Default)]
-pub struct Stability {
-    config: StabilityConfig,
-    /// The Lanczos tracker of [`Tracking::Lanczos`].
-    tracker: LambdaMaxTracker,
-    /// The tracker of [`Tracking::Certified`].
-    certified: CertifiedTracker,
-    /// The nodal form of the eq 56 operator, rebuilt in place at each update.
-    nodal: NodalOperator,
-    reference: Option<RefreshReference>,
-    /// The estimate the last proposal used (in the default mode the served or certified value).
-    current: Option<LambdaEstimate>,
-    /// Whether eq 58 is due on the trial of the last proposal.
-    fresh: bool,
-    /// Proposals so far (for [`StabilityConfig::bound58_every`]).
-    proposals: u64,
+/// The stability limit of dimension `D` (eq 56; in 1D also eq 58), a [`StepLimit`] named
+/// `"stability"`: proposes `safety · dt_crit` with `dt_crit` from the dimension's
+/// [`StabilityRule`] (module docs). `Stability` without a parameter is the 1D limit.
+#[derive(Clone, Debug)]
+pub struct Stability<const D: usize = 1>
+where
+    Dim<D>: StabilityDim,
+{
+    /// The current safety factor: the configured one, lowered after growth.
+    safety: f64,
+    rule: RuleOf<D>,
 }
 
-impl Stability {
-    /// The limit with the given settings (validated).
-    pub fn new(config: StabilityConfig) -> Result<Self, StabilityError> {
-        check_safety(config.safety)?;
-        if !(config.tol >= 0.0 && config.tol.is_finite()) {
-            return Err(StabilityError::InvalidConfig {
-                field: "tol",
-                value: config.tol,
-                reason: "must be non-negative and finite",
-            });
-        }
-        let certified = match config.tracking {
-            Tracking::Certified(c) => c,
-            Tracking::Lanczos(r) => {
-                r.validate()?;
-                CertifiedConfig::default()
-            }
-        };
-        Ok(Self {
-            config,
-            tracker: LambdaMaxTracker::new(config.lanczos)?,
-            certified: CertifiedTracker::new(certified, config.lanczos)?,
-            nodal: NodalOperator::default(),
-            reference: None,
-            current: None,
-            fresh: false,
-            proposals: 0,
-        })
+/// The 2D/3D stability limit, `Stability<D>`: the older name, kept.
+pub type StabilityNd<const D: usize> = Stability<D>;
+
+/// What a checkpoint stores: the safety, and the rule's tracked state beside it (one JSON
+/// object).
+#[derive(Serialize, Deserialize)]
+struct Checkpoint<'a, S: Clone> {
+    safety: f64,
+    #[serde(flatten)]
+    tracked: Cow<'a, S>,
+}
+
+impl<const D: usize> Stability<D>
+where
+    Dim<D>: StabilityDim,
+{
+    /// The limit with `settings`, validated ([`StabilitySettings`]).
+    pub fn new<S: StabilitySettings<D>>(settings: S) -> Result<Self, S::Error> {
+        settings.build()
     }
 
-    /// The settings (with the current safety factor).
-    pub fn config(&self) -> StabilityConfig {
-        self.config
+    /// A limit around a rule, starting from `safety`.
+    pub(crate) fn with_rule(safety: f64, rule: RuleOf<D>) -> Self {
+        Self { safety, rule }
     }
 
     /// The current safety factor.
     pub fn safety(&self) -> f64 {
-        self.config.safety
+        self.safety
     }
 
-    /// Changes the safety factor (must be in `(0, 1]`); the controller's growth monitor
-    /// lowers it after detecting growth.
-    pub fn set_safety(&mut self, safety: f64) -> Result<(), StabilityError> {
-        check_safety(safety)?;
-        tracing::debug!(
-            old = self.config.safety,
-            new = safety,
-            "stability safety changed"
-        );
-        self.config.safety = safety;
-        Ok(())
+    /// Sets the current safety factor (callers check it).
+    pub(crate) fn put_safety(&mut self, safety: f64) {
+        self.safety = safety;
     }
 
-    /// The λmax estimate the last proposal used (the certified upper bound by default).
-    pub fn last_estimate(&self) -> Option<LambdaEstimate> {
-        self.current
+    /// The limit's rule.
+    pub fn rule(&self) -> &RuleOf<D> {
+        &self.rule
     }
 
-    /// The Lanczos tracker of [`Tracking::Lanczos`] (e.g. to read the eigenvector).
-    pub fn tracker(&self) -> &LambdaMaxTracker {
-        &self.tracker
-    }
-
-    /// The certified tracker of [`Tracking::Certified`].
-    pub fn certified_tracker(&self) -> &CertifiedTracker {
-        &self.certified
-    }
-
-    /// The Lanczos estimate of λmax for `state` (a lower bound), updating the Lanczos tracker.
-    /// The iteration runs on the nodal form `C = M^{1/2} K_N M^{1/2}` of the eq 56 operator
-    /// ([`NodalOperator`]), which has the same `λmax` as the particle form `B` on `n_nodes`
-    /// instead of `n_particles` unknowns (the tracker's vector is therefore nodal).
-    pub fn estimate(&mut self, state: &View<'_>) -> Result<LambdaEstimate, StabilityError> {
-        self.nodal.rebuild(state)?;
-        self.tracker.update(&self.nodal)
-    }
-
-    /// The certified bracket of λmax for `state` ([`CertifiedTracker::update`]).
-    pub fn certified_estimate(
-        &mut self,
-        state: &View<'_>,
-    ) -> Result<CertifiedEstimate, StabilityError> {
-        self.certified.update(state, &mut self.nodal)
-    }
-
-    /// Whether eq 58 is due on the trial of the latest proposal
-    /// ([`StabilityConfig::bound58_every`]).
-    fn bound58_due(&self) -> bool {
-        let every = u64::from(self.config.bound58_every);
-        every > 0 && (self.proposals.saturating_sub(1)).is_multiple_of(every)
-    }
-
-    /// The λmax estimate for `state` and the metrics of how it was obtained.
-    fn tracked_estimate(
-        &mut self,
-        state: &View<'_>,
-    ) -> Result<(LambdaEstimate, Metrics), StabilityError> {
-        let mut metrics = Metrics::new();
-        let refresh = match self.config.tracking {
-            Tracking::Lanczos(r) => r,
-            Tracking::Certified(_) => {
-                let c = self.certified_estimate(state)?;
-                metrics.insert("lambda_rayleigh".into(), c.rayleigh);
-                metrics.insert(
-                    "lambda_certified".into(),
-                    if c.certified { 1.0 } else { 0.0 },
-                );
-                metrics.insert("lambda_factorisations".into(), c.factorisations as f64);
-                metrics.insert(
-                    "lanczos_applications".into(),
-                    c.estimate.applications as f64,
-                );
-                return Ok((c.estimate, metrics));
-            }
-        };
-        let cached = self.tracker.last().filter(|_| {
-            self.reference
-                .as_ref()
-                .is_some_and(|r| !r.stale(state, &refresh))
-        });
-        let (est, fresh) = match cached {
-            Some(est) => {
-                if let Some(r) = self.reference.as_mut() {
-                    r.proposals += 1;
-                }
-                (est, false)
-            }
-            None => {
-                let est = self.estimate(state)?;
-                let mut reference = RefreshReference::of(state);
-                reference.proposals = 1;
-                self.reference = Some(reference);
-                (est, true)
-            }
-        };
-        metrics.insert(
-            "lanczos_applications".into(),
-            if fresh { est.applications as f64 } else { 0.0 },
-        );
-        metrics.insert("lanczos_residual".into(), est.residual);
-        Ok((est, metrics))
+    /// The limit's rule, to change.
+    pub(crate) fn rule_mut(&mut self) -> &mut RuleOf<D> {
+        &mut self.rule
     }
 }
 
-/// What [`StepLimit::save_state`] stores: the safety factor and the tracker's warm start.
-#[derive(serde::Serialize, serde::Deserialize)]
-struct SavedState {
-    safety: f64,
-    tracker: super::lambda_max::TrackerState,
-    certified: CertifiedState,
-    reference: Option<RefreshReference>,
-    current: Option<LambdaEstimate>,
-    fresh: bool,
-    proposals: u64,
+/// A [`LimitError::Restore`] of this limit.
+fn restore_error(source: serde_json::Error) -> LimitError {
+    LimitError::Restore {
+        limit: STABILITY.to_string(),
+        source: source.into(),
+    }
 }
 
-impl StepLimit for Stability {
+impl<const D: usize> StepLimit<D> for Stability<D>
+where
+    Dim<D>: StabilityDim,
+{
     fn name(&self) -> &str {
-        "stability"
+        STABILITY
     }
 
-    /// The λmax update reads `K_N` from the view when the stepper provides it: on every
-    /// state, except that the certified tracker serving on the element bound asks only for
-    /// the states it computes on `K_N` ([`CertifiedTracker::wants_nodal_stiffness`]).
+    fn propose(&mut self, state: &<Dim<D> as Dimension>::View<'_>) -> Result<Proposal, LimitError> {
+        let critical = self.rule.critical(state, self.safety)?;
+        Ok(Proposal {
+            dt: self.safety * critical.dt,
+            metrics: critical.metrics,
+        })
+    }
+
+    fn judge(
+        &mut self,
+        before: &<Dim<D> as Dimension>::View<'_>,
+        after: &<Dim<D> as Dimension>::View<'_>,
+        dt: f64,
+    ) -> Result<Judgement, LimitError> {
+        self.rule.judge(before, after, dt, self.safety)
+    }
+
     fn reads_nodal_stiffness(&self) -> bool {
-        match self.config.tracking {
-            Tracking::Certified(_) => self.certified.wants_nodal_stiffness(),
-            Tracking::Lanczos(_) => true,
-        }
+        self.rule.reads_nodal_stiffness()
     }
 
-    /// The certified tracker serving on the element bound reads it
-    /// ([`crate::stability::CertifiedConfig::on_bound`]).
     fn reads_element_bound(&self) -> bool {
-        matches!(self.config.tracking, Tracking::Certified(c) if c.on_bound)
+        self.rule.reads_element_bound()
+    }
+
+    fn reads_arrays(&self, call: LimitCall, state: &<Dim<D> as Dimension>::View<'_>) -> bool {
+        self.rule.reads_arrays(call, state)
     }
 
     /// Multiplies the safety factor by `factor` (ignored unless `0 < factor ≤ 1`).
     fn scale_safety(&mut self, factor: f64) {
         if factor > 0.0 && factor <= 1.0 {
-            let new = self.config.safety * factor;
-            tracing::debug!(old = self.config.safety, new, "stability safety scaled");
-            self.config.safety = new;
+            let new = self.safety * factor;
+            tracing::debug!(old = self.safety, new, "stability safety scaled");
+            self.safety = new;
         }
     }
 
+    fn set_reduce(&mut self, reduce: std::rc::Rc<dyn crate::reduce::Reduce>) {
+        self.rule.set_reduce(reduce);
+    }
+
+    fn set_threads(&mut self, pool: Option<std::sync::Arc<rayon::ThreadPool>>) {
+        self.rule.set_threads(pool);
+    }
+
+    fn memory_bytes(&self) -> usize {
+        self.rule.memory_bytes()
+    }
+
+    /// The safety and the rule's tracked state, in one object (JSON keeps every `f64`
+    /// bit-exact: serde_json's `float_roundtrip`). Restored, the limit proposes bit for bit
+    /// what it would have proposed had the run gone on.
     fn save_state(&self) -> Option<serde_json::Value> {
-        serde_json::to_value(SavedState {
-            safety: self.config.safety,
-            tracker: self.tracker.state(),
-            certified: self.certified.state(),
-            reference: self.reference.clone(),
-            current: self.current,
-            fresh: self.fresh,
-            proposals: self.proposals,
+        serde_json::to_value(Checkpoint {
+            safety: self.safety,
+            tracked: self.rule.state(),
         })
         .ok()
     }
 
+    /// Refuses, with a [`LimitError::Restore`] naming the limit and leaving it as it was, a
+    /// state that does not read, whose safety is not in `(0, ceiling]`
+    /// ([`StabilityRule::safety_ceiling`]) or whose tracked state the rule refuses
+    /// ([`StabilityRule::restore`]).
     fn restore_state(&mut self, state: &serde_json::Value) -> Result<(), LimitError> {
-        let saved: SavedState =
-            serde_json::from_value(state.clone()).map_err(|e| LimitError::Restore {
-                limit: "stability".into(),
-                source: e.into(),
-            })?;
-        check_safety(saved.safety).map_err(|e| e.into_limit_error("stability", f64::NAN))?;
-        self.config.safety = saved.safety;
-        self.tracker.restore(saved.tracker);
-        self.certified.restore(saved.certified);
-        self.reference = saved.reference;
-        self.current = saved.current;
-        self.fresh = saved.fresh;
-        self.proposals = saved.proposals;
-        Ok(())
-    }
-
-    fn propose(&mut self, state: &View<'_>) -> Result<Proposal, LimitError> {
-        let (est, mut metrics) = self
-            .tracked_estimate(state)
-            .map_err(|e| e.into_limit_error("stability", state.t))?;
-        self.current = Some(est);
-        self.proposals += 1;
-        self.fresh = self.bound58_due();
-        let dt = self.config.safety * est.dt_eq56;
-        metrics.insert("lambda_max".into(), est.lambda_hat);
-        metrics.insert("dt_eq56".into(), est.dt_eq56);
-        metrics.insert("safety".into(), self.config.safety);
-        tracing::debug!(
-            t = state.t,
-            lambda_max = est.lambda_hat,
-            dt_eq56 = est.dt_eq56,
-            dt,
-            applications = est.applications,
-            "stability proposal"
-        );
-        Ok(Proposal { dt, metrics })
-    }
-
-    fn judge(
-        &mut self,
-        before: &View<'_>,
-        after: &View<'_>,
-        dt: f64,
-    ) -> Result<Judgement, LimitError> {
-        let est = match self.current {
-            Some(e) => e,
-            None => {
-                // Judged without a proposal: bound λmax of the committed state now.
-                let (est, _) = self
-                    .tracked_estimate(before)
-                    .map_err(|e| e.into_limit_error("stability", before.t))?;
-                self.current = Some(est);
-                self.proposals += 1;
-                self.fresh = self.bound58_due();
-                est
-            }
-        };
-        // Eq 58 needs the Section 4 estimates: checked on the trial after every
-        // `bound58_every`-th λmax update.
-        let b = if self.fresh {
-            bound58(after, dt, self.config.reading)
-                .map_err(|e| e.into_limit_error("stability", after.t))?
-        } else {
-            None
-        };
-        let mut metrics = Metrics::new();
-        metrics.insert("lambda_max".into(), est.lambda_hat);
-        metrics.insert("dt_eq56".into(), est.dt_eq56);
-        let mut reject = dt > (1.0 + self.config.tol) * est.dt_eq56;
-        if let Some(b) = b {
-            metrics.insert("bound58".into(), b.value_energy);
-            metrics.insert("bound58_euclidean".into(), b.value);
-            reject |= b.value_energy > 1.0 + self.config.tol;
+        let saved: Checkpoint<'static, <RuleOf<D> as StabilityRule<Dim<D>>>::State> =
+            serde_json::from_value(state.clone()).map_err(restore_error)?;
+        let invalid = |what: &str| restore_error(serde::de::Error::custom(what));
+        if !(saved.safety > 0.0 && saved.safety <= self.rule.safety_ceiling()) {
+            return Err(invalid(
+                "safety: not in (0, the largest safety the limit takes]",
+            ));
         }
-        tracing::debug!(
-            t = before.t,
-            dt,
-            dt_eq56 = est.dt_eq56,
-            bound58 = b.map(|b| b.value_energy),
-            reject,
-            "stability judgement"
-        );
-        let verdict = if reject {
-            Verdict::Reject {
-                cause: RejectCause::Stability,
-                suggested_dt: Some(self.config.safety * est.dt_eq56),
-            }
-        } else {
-            Verdict::Accept
-        };
-        Ok(Judgement { verdict, metrics })
+        self.rule
+            .restore(saved.tracked.into_owned())
+            .map_err(invalid)?;
+        self.safety = saved.safety;
+        Ok(())
     }
 }

@@ -13,7 +13,8 @@
 //! | [`mod@bound58`] | the eq 58 "lower bound" on the amplification-matrix norm | eqs 33, 57, 58 |
 //! | [`full_map`] | the exact frozen-particle critical step of the whole USL map | eqs 17–29 linearised |
 //! | [`empirical`] | the critical step found by bisection on real nonlinear runs | docs/design.md `critical_dt` |
-//! | [`limit`] | the [`Stability`] step limit: `safety·dt_eq56`, rejecting on eq 58 | eqs 56, 58 |
+//! | [`limit`] | the stability limit of every dimension, [`Stability<D>`](limit::Stability): `safety·dt_crit`, its rule behind [`StabilityRule`] | eq 56 |
+//! | [`one_d`] | the 1D rule [`BandedEq56`]: the certified tracker on the `K_N` band, rejecting on eq 58 (`Stability` = `Stability<1>`) | eqs 56, 58 |
 //!
 //! # The governing equation (eq 56), generalised to per-particle moduli
 //!
@@ -70,6 +71,7 @@ pub mod limit;
 mod localise;
 pub mod nodal;
 pub mod nodal_full_map;
+pub mod one_d;
 pub mod operator;
 mod power_pass;
 pub mod sound_speed;
@@ -95,5 +97,6 @@ pub use empirical::{
 };
 #[cfg(feature = "reference")]
 pub use full_map::{FullMap, FullMapConfig};
-pub use limit::{Refresh, Stability, StabilityConfig, Tracking};
+pub use limit::{Critical, Stability, StabilityDim, StabilityRule, StabilitySettings, STABILITY};
+pub use one_d::{BandedEq56, BandedState, Refresh, StabilityConfig, Tracking};
 pub use operator::Eq56Operator;

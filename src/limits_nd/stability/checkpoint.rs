@@ -1,117 +1,123 @@
-//! What [`StabilityNd`] keeps between proposals, for a controller checkpoint
-//! ([`StepLimit::save_state`](crate::limit::StepLimit::save_state)): the tracked `λmax`
-//! and its Ritz vector (the next refresh's warm start), the layout guard's references at the
-//! last refresh, the calibrated bound's state, the safety as lowered after growth, and the
-//! counters. Restored, the limit proposes bit for bit what it would have proposed had the
-//! run gone on; without it a restarted run would start Lanczos cold and take other steps.
+//! What the 2D/3D stability limit keeps between proposals, [`TrackedNd`], which a controller
+//! checkpoint saves ([`StepLimit::save_state`](crate::limit::StepLimit::save_state), beside
+//! the safety as lowered after growth, [`crate::stability::limit`]): the tracked `λmax` and
+//! its Ritz vector (the next refresh's warm start), the layout guard's references at the
+//! last refresh, the calibrated bound's state, and the counters. Restored, the limit
+//! proposes bit for bit what it would have proposed had the run gone on; without it a
+//! restarted run would start Lanczos cold and take other steps.
 //!
 //! JSON keeps every `f64` and `f32` bit-exact (serde_json's `float_roundtrip`). The
 //! positions at the refresh are stored flat (`D` single-precision numbers a particle).
 
 use super::on_summary::OnSummary;
-use super::StabilityNd;
-use crate::limit::LimitError;
 use crate::limits_nd::bound_tracking::BoundTracking;
-use serde::{Deserialize, Serialize};
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
-/// The saved state (module docs).
-#[derive(Serialize, Deserialize)]
-pub(super) struct SavedNd {
-    safety: f64,
-    lambda: Option<f64>,
-    ritz: Vec<f64>,
-    x_ref: Vec<f32>,
-    moduli_ref: Vec<(f64, f64)>,
-    mass_ref: f64,
-    diag_ref: f64,
-    diag_growth: f64,
-    gain: f64,
-    age: u32,
-    refreshes: u64,
-    applications: u64,
-    tracking: BoundTracking,
-    last_products: Option<u64>,
-    on_summary: OnSummary,
+/// The tracked state of [`super::GuardedEq56`] (module docs): held by the rule and saved as
+/// it is, so its fields are listed once.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct TrackedNd<const D: usize> {
+    /// The tracked bound on `λmax(M⁻¹K)`, once computed.
+    pub(super) lambda: Option<f64>,
+    /// The Ritz vector of the last refresh (the next one's warm start).
+    pub(super) ritz: Vec<f64>,
+    /// Positions at the refresh relative to the grid's origin, in single precision
+    /// ([`super::guard`]); stored flat.
+    #[serde(serialize_with = "flat", deserialize_with = "unflat")]
+    pub(super) x_ref: Vec<[f32; D]>,
+    /// `(V(dλ_t + 2μ_t), Vμ_t)` per particle at the refresh.
+    pub(super) moduli_ref: Vec<(f64, f64)>,
+    /// Smallest active nodal mass at the refresh.
+    pub(super) mass_ref: f64,
+    /// `max diag(A)` at the refresh ([`crate::limits_nd::stiffness::diagonal_argmax`]).
+    pub(super) diag_ref: f64,
+    /// Growth of `max diag(A)` accepted without a refresh since the last one (≥ 1).
+    pub(super) diag_growth: f64,
+    /// `1 + p` of the scheme's transfer on the tracked top mode (1 for FLIP; `λmax/λ*`
+    /// with [`crate::limits_nd::StabilityNdConfig::full_map`]).
+    pub(super) gain: f64,
+    /// Proposals since the last refresh.
+    pub(super) age: u32,
+    /// Lanczos refreshes so far.
+    pub(super) refreshes: u64,
+    /// Products with `K` so far.
+    pub(super) applications: u64,
+    /// When proposals use the element bound instead ([`crate::limits_nd::bound_tracking`]).
+    pub(super) tracking: BoundTracking,
+    /// Lanczos products of the last refresh when it was warm-started (a cold start's are
+    /// not what tracking costs).
+    pub(super) last_products: Option<u64>,
+    /// What proposals on summary-only views carry from the last check
+    /// ([`super::on_summary`]).
+    pub(super) on_summary: OnSummary,
 }
 
-impl<const D: usize> StabilityNd<D> {
-    /// The limit's state for a checkpoint (module docs).
-    pub(super) fn saved(&self) -> Option<serde_json::Value> {
-        serde_json::to_value(SavedNd {
-            safety: self.safety,
-            lambda: self.lambda,
-            ritz: self.ritz.clone(),
-            x_ref: self.x_ref.iter().flatten().copied().collect(),
-            moduli_ref: self.moduli_ref.clone(),
-            mass_ref: self.mass_ref,
-            diag_ref: self.diag_ref,
-            diag_growth: self.diag_growth,
-            gain: self.gain,
-            age: self.age,
-            refreshes: self.refreshes,
-            applications: self.applications,
-            tracking: self.tracking.clone(),
-            last_products: self.last_products,
-            on_summary: self.on_summary,
-        })
-        .ok()
+impl<const D: usize> Default for TrackedNd<D> {
+    /// Nothing tracked yet.
+    fn default() -> Self {
+        Self {
+            lambda: None,
+            ritz: Vec::new(),
+            x_ref: Vec::new(),
+            moduli_ref: Vec::new(),
+            mass_ref: 0.0,
+            diag_ref: 0.0,
+            diag_growth: 1.0,
+            gain: 1.0,
+            age: 0,
+            refreshes: 0,
+            applications: 0,
+            tracking: BoundTracking::default(),
+            last_products: None,
+            on_summary: OnSummary::default(),
+        }
     }
+}
 
-    /// Restores [`Self::saved`]'s state; a state that does not read, or whose positions
-    /// are not `D` numbers a particle with one moduli pair each, whose safety is not in
-    /// `(0, the configured one]`, whose `λmax` is not finite and positive, or whose growth
-    /// factors are below 1, is a [`LimitError::Restore`] naming the limit (the limit is
-    /// left as it was).
-    pub(super) fn restore(&mut self, state: &serde_json::Value) -> Result<(), LimitError> {
-        let error = |source: serde_json::Error| LimitError::Restore {
-            limit: super::STABILITY.to_string(),
-            source: source.into(),
-        };
-        let saved: SavedNd = serde_json::from_value(state.clone()).map_err(error)?;
-        let invalid = |what: &str| error(serde::de::Error::custom(what));
-        if !saved.x_ref.len().is_multiple_of(D) {
-            return Err(invalid("x_ref: not D numbers a particle"));
+/// The positions written as `D` numbers a particle, one flat list.
+fn flat<S: Serializer, const D: usize>(x: &[[f32; D]], s: S) -> Result<S::Ok, S::Error> {
+    s.collect_seq(x.iter().flatten())
+}
+
+/// The positions read from a flat list: refused unless it holds `D` numbers a particle.
+fn unflat<'de, De: Deserializer<'de>, const D: usize>(d: De) -> Result<Vec<[f32; D]>, De::Error> {
+    let flat = Vec::<f32>::deserialize(d)?;
+    if !flat.len().is_multiple_of(D) {
+        return Err(serde::de::Error::custom("x_ref: not D numbers a particle"));
+    }
+    Ok(flat
+        .chunks_exact(D)
+        .map(|c| std::array::from_fn(|a| c[a]))
+        .collect())
+}
+
+impl<const D: usize> TrackedNd<D> {
+    /// Whether a restored state belongs together: one moduli pair for each particle of
+    /// `x_ref`, a finite positive `λmax` when one is tracked, a finite positive gain, and
+    /// growth factors (the light nodes' diagonal, the guard's) at least 1. Else what is
+    /// wrong.
+    pub(super) fn check(&self) -> Result<(), &'static str> {
+        if self.moduli_ref.len() != self.x_ref.len() {
+            return Err("moduli_ref: not one pair for each particle of x_ref");
         }
-        if saved.moduli_ref.len() != saved.x_ref.len() / D {
-            return Err(invalid(
-                "moduli_ref: not one pair for each particle of x_ref",
-            ));
-        }
-        if !(saved.safety > 0.0 && saved.safety <= self.config.safety) {
-            return Err(invalid("safety: not in (0, the configured safety]"));
-        }
-        if saved.lambda.is_some_and(|l| !(l.is_finite() && l > 0.0)) {
-            return Err(invalid("lambda: not a finite positive number"));
+        if self.lambda.is_some_and(|l| !(l.is_finite() && l > 0.0)) {
+            return Err("lambda: not a finite positive number");
         }
         let at_least_one = |x: f64| x.is_finite() && x >= 1.0;
-        let in_range = saved.gain.is_finite()
-            && saved.gain > 0.0
-            && at_least_one(saved.diag_growth)
-            && at_least_one(saved.on_summary.growth());
+        let in_range = self.gain.is_finite()
+            && self.gain > 0.0
+            && at_least_one(self.diag_growth)
+            && at_least_one(self.on_summary.growth());
         if !in_range {
-            return Err(invalid(
-                "gain, diag_growth or the guard's factor: out of range",
-            ));
+            return Err("gain, diag_growth or the guard's factor: out of range");
         }
-        self.safety = saved.safety;
-        self.lambda = saved.lambda;
-        self.ritz = saved.ritz;
-        self.x_ref = saved
-            .x_ref
-            .chunks_exact(D)
-            .map(|c| std::array::from_fn(|a| c[a]))
-            .collect();
-        self.moduli_ref = saved.moduli_ref;
-        self.mass_ref = saved.mass_ref;
-        self.diag_ref = saved.diag_ref;
-        self.diag_growth = saved.diag_growth;
-        self.gain = saved.gain;
-        self.age = saved.age;
-        self.refreshes = saved.refreshes;
-        self.applications = saved.applications;
-        self.tracking = saved.tracking;
-        self.last_products = saved.last_products;
-        self.on_summary = saved.on_summary;
         Ok(())
+    }
+
+    /// Bytes of the per-particle and per-node arrays held (their capacities).
+    pub(super) fn memory_bytes(&self) -> usize {
+        self.x_ref.capacity() * std::mem::size_of::<[f32; D]>()
+            + self.moduli_ref.capacity() * std::mem::size_of::<(f64, f64)>()
+            + self.ritz.capacity() * std::mem::size_of::<f64>()
     }
 }

@@ -31,13 +31,13 @@
 //! (about as costly: both form every particle's weight row). `lanczos_applications`
 //! counts the `K` products of both runs.
 
-use super::StabilityNd;
+use super::GuardedEq56;
 use crate::limits_nd::nodal_full_map::NodalPencilNd;
 use crate::limits_nd::stiffness::LanczosResult;
 use crate::nd::ViewNd;
 use crate::stability::nodal_full_map::{nodal_critical_dt_from, NodalLanczos};
 
-impl<const D: usize> StabilityNd<D> {
+impl<const D: usize> GuardedEq56<D> {
     /// `gain = θ/θ*` of the state `view` at a refresh whose eq 56 Lanczos gave `r` (module
     /// docs); 1 (eq 56) on a run over several processes or when the second run finds no converged
     /// value. Also the second run's cost in eq 56's products (each iteration about two),
@@ -56,7 +56,7 @@ impl<const D: usize> StabilityNd<D> {
         let pencil = NodalPencilNd::new(view);
         match nodal_critical_dt_from(&pencil, Some(&r.vector), settings) {
             Some(c) => {
-                self.applications += c.products as u64;
+                self.tracked.applications += c.products as u64;
                 let gain = match c.converged && c.lambda > 0.0 && r.lambda > 0.0 {
                     true => (r.lambda / c.lambda).min(2.0),
                     false => 1.0,
@@ -72,8 +72,8 @@ impl<const D: usize> StabilityNd<D> {
     /// full map's; module docs). The APIC gain is taken on the bound as before.
     pub(super) fn proposal_gain(&self, on_bound: bool) -> f64 {
         match on_bound && self.config.full_map {
-            true => self.gain.min(1.0),
-            false => self.gain,
+            true => self.tracked.gain.min(1.0),
+            false => self.tracked.gain,
         }
     }
 }

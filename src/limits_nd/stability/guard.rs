@@ -9,7 +9,7 @@
 //! that bound (about `10⁻⁷` of a coordinate) below the threshold.
 
 use super::guard_scan::{scan, GuardRefs, GuardRows, GuardScan, GUARD_CHUNK};
-use super::StabilityNd;
+use super::GuardedEq56;
 use crate::limits_nd::stiffness::diagonal_argmax;
 use crate::nd::{Vector, ViewNd};
 use rayon::prelude::*;
@@ -25,7 +25,7 @@ fn single<const D: usize>(x: &Vector<D>, origin: &[f64; D]) -> [f32; D] {
     std::array::from_fn(|a| (x[a] - origin[a]) as f32)
 }
 
-/// `(V(dλ_t + 2μ_t), Vμ_t)` of a particle of volume `vol` ([`StabilityNd`]'s guard).
+/// `(V(dλ_t + 2μ_t), Vμ_t)` of a particle of volume `vol` ([`GuardedEq56`]'s guard).
 #[inline]
 pub(super) fn moduli_of<const D: usize>(vol: f64, l: f64, m: f64) -> (f64, f64) {
     (vol * (D as f64 * l + 2.0 * m), vol * m)
@@ -83,7 +83,7 @@ pub(super) enum Staleness {
     Stale,
 }
 
-impl<const D: usize> StabilityNd<D> {
+impl<const D: usize> GuardedEq56<D> {
     /// The two eigenvalues of `V_p C_p` on symmetric tensors: `V(dλ_t + 2μ_t)` (volumetric)
     /// and `2Vμ_t` (deviatoric), the latter stored halved as `Vμ_t`.
     #[inline]
@@ -132,10 +132,10 @@ impl<const D: usize> StabilityNd<D> {
         check_motion: bool,
         calibrated: bool,
     ) -> Staleness {
-        if self.lambda.is_none()
-            || self.age >= self.config.max_age
-            || self.x_ref.len() != Self::n_refs(view)
-            || self.ritz.len() != view.n_nodes() * D
+        if self.tracked.lambda.is_none()
+            || self.tracked.age >= self.config.max_age
+            || self.tracked.x_ref.len() != Self::n_refs(view)
+            || self.tracked.ritz.len() != view.n_nodes() * D
         {
             return Staleness::Stale;
         }
@@ -151,15 +151,15 @@ impl<const D: usize> StabilityNd<D> {
             // No active node.
             return Staleness::Stale;
         }
-        if m_min < (1.0 - self.config.refresh_mass) * self.mass_ref {
+        if m_min < (1.0 - self.config.refresh_mass) * self.tracked.mass_ref {
             // A lighter node: refresh only if some node's diagonal of A grew (module docs).
             let d = diag.insert(diagonal_argmax(view, &*self.reduce)).0;
-            let growth = d / self.diag_ref;
+            let growth = d / self.tracked.diag_ref;
             if growth.is_nan() || growth > 1.0 + loosen(self.config.refresh_diagonal) {
                 return Staleness::Stale;
             }
-            self.diag_growth = self.diag_growth.max(growth);
-            self.mass_ref = m_min;
+            self.tracked.diag_growth = self.tracked.diag_growth.max(growth);
+            self.tracked.mass_ref = m_min;
         }
         let grid = view.split.as_ref().map_or(view.grid, |s| s.whole);
         let lim = self.config.refresh_cells;
@@ -171,8 +171,8 @@ impl<const D: usize> StabilityNd<D> {
         });
         let rows = GuardRows::of(view);
         let refs = GuardRefs {
-            x: &self.x_ref,
-            moduli: &self.moduli_ref,
+            x: &self.tracked.x_ref,
+            moduli: &self.tracked.moduli_ref,
             grid,
             period,
             lim,
@@ -197,7 +197,7 @@ impl<const D: usize> StabilityNd<D> {
         if found.stale {
             return Staleness::Stale;
         }
-        let growth = found.growth.max(self.diag_growth);
+        let growth = found.growth.max(self.tracked.diag_growth);
         if found.moved {
             Staleness::Moved(growth)
         } else {
@@ -210,8 +210,10 @@ impl<const D: usize> StabilityNd<D> {
     /// [`crate::limits_nd::bound_tracking`]; an undivided grid only).
     pub(super) fn reanchor_positions(&mut self, view: &ViewNd<'_, D>) {
         let origin = view.grid.origin;
-        self.x_ref.clear();
-        self.x_ref.extend(view.x.iter().map(|x| single(x, &origin)));
+        self.tracked.x_ref.clear();
+        self.tracked
+            .x_ref
+            .extend(view.x.iter().map(|x| single(x, &origin)));
     }
 
     /// Keeps the positions and moduli of the analysed state. On a decomposed grid the
@@ -222,10 +224,13 @@ impl<const D: usize> StabilityNd<D> {
         let origin = view.split.as_ref().map_or(view.grid, |s| s.whole).origin;
         let Some(split) = &view.split else {
             // Overwritten in place: no second copy while the old references are dropped.
-            self.x_ref.clear();
-            self.x_ref.extend(view.x.iter().map(|x| single(x, &origin)));
-            self.moduli_ref.clear();
-            self.moduli_ref
+            self.tracked.x_ref.clear();
+            self.tracked
+                .x_ref
+                .extend(view.x.iter().map(|x| single(x, &origin)));
+            self.tracked.moduli_ref.clear();
+            self.tracked
+                .moduli_ref
                 .extend((0..view.n_particles()).map(|p| Self::moduli(view, p)));
             return;
         };
@@ -240,10 +245,10 @@ impl<const D: usize> StabilityNd<D> {
             buf[k + D + 1] = shear;
         }
         Self::agreement(&*self.reduce, view).sum(&mut buf);
-        self.x_ref = buf
+        self.tracked.x_ref = buf
             .chunks_exact(w)
             .map(|c| single(&Vector::<D>::from_column_slice(&c[..D]), &origin))
             .collect();
-        self.moduli_ref = buf.chunks_exact(w).map(|c| (c[D], c[D + 1])).collect();
+        self.tracked.moduli_ref = buf.chunks_exact(w).map(|c| (c[D], c[D + 1])).collect();
     }
 }

@@ -24,7 +24,7 @@
 //! `bound_drift`, `bound_age` or `max_age` reached, no bound in the summary — needs the
 //! arrays, and the limit says so ([`crate::StepLimit::reads_arrays`]).
 
-use super::StabilityNd;
+use super::GuardedEq56;
 use crate::limit::LimitError;
 use crate::limits_nd::bound_tracking::view_supplies_bound;
 use crate::nd::ViewNd;
@@ -64,7 +64,7 @@ impl OnSummary {
     }
 }
 
-impl<const D: usize> StabilityNd<D> {
+impl<const D: usize> GuardedEq56<D> {
     /// The element bound of a summary-only view, when it is a positive number.
     fn summary_bound(view: &ViewNd<'_, D>) -> Option<f64> {
         view.summary
@@ -76,20 +76,21 @@ impl<const D: usize> StabilityNd<D> {
     /// bound mode with a usable bound, or the calibrated bound within its drift, its ages
     /// and the guard's cadence (module docs).
     pub(super) fn serves_on_summary(&self, view: &ViewNd<'_, D>) -> bool {
-        let (Some(bound), Some(_)) = (Self::summary_bound(view), self.lambda) else {
+        let (Some(bound), Some(_)) = (Self::summary_bound(view), self.tracked.lambda) else {
             return false;
         };
-        if self.age >= self.config.bound_age {
+        if self.tracked.age >= self.config.bound_age {
             return false;
         }
-        if self.tracking.active {
+        if self.tracked.tracking.active {
             return true;
         }
         view_supplies_bound(view)
             && self.calibrating()
-            && self.age < self.config.max_age
-            && self.on_summary.unchecked < SUMMARY_CHECK_EVERY
+            && self.tracked.age < self.config.max_age
+            && self.tracked.on_summary.unchecked < SUMMARY_CHECK_EVERY
             && self
+                .tracked
                 .tracking
                 .calibrated_scale(bound, self.config.bound_drift)
                 .is_some()
@@ -99,9 +100,12 @@ impl<const D: usize> StabilityNd<D> {
     /// [`Self::serves_on_summary`] does not hold (the controller then should have loaded
     /// the arrays).
     pub(super) fn summary_lambda(&mut self, view: &ViewNd<'_, D>) -> Result<f64, LimitError> {
-        let cached = self.lambda.filter(|_| self.serves_on_summary(view));
-        let scale = Self::summary_bound(view)
-            .and_then(|b| self.tracking.calibrated_scale(b, self.config.bound_drift));
+        let cached = self.tracked.lambda.filter(|_| self.serves_on_summary(view));
+        let scale = Self::summary_bound(view).and_then(|b| {
+            self.tracked
+                .tracking
+                .calibrated_scale(b, self.config.bound_drift)
+        });
         let (Some(cached), Some(scale)) = (cached, scale) else {
             return Err(LimitError::Other {
                 limit: super::STABILITY.to_string(),
@@ -110,8 +114,8 @@ impl<const D: usize> StabilityNd<D> {
                     .to_string(),
             });
         };
-        self.on_summary.unchecked += 1;
-        self.tracking.calibrated_proposals += 1;
-        Ok(cached * self.on_summary.growth.max(scale))
+        self.tracked.on_summary.unchecked += 1;
+        self.tracked.tracking.calibrated_proposals += 1;
+        Ok(cached * self.tracked.on_summary.growth.max(scale))
     }
 }

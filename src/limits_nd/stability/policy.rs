@@ -1,12 +1,12 @@
 //! Which policy the stability limit proposes from between Lanczos refreshes: the
 //! calibrated bound, bound mode or the cached value ([`super::super::bound_tracking`]).
 
-use super::StabilityNd;
+use super::GuardedEq56;
 use crate::limits_nd::bound_tracking::view_supplies_bound;
 use crate::limits_nd::transfer::TransferNd;
 use crate::nd::ViewNd;
 
-impl<const D: usize> StabilityNd<D> {
+impl<const D: usize> GuardedEq56<D> {
     /// Whether the calibrated bound is on (`bound_drift ≥ 0`; under APIC only after a
     /// refresh and while no refresh has met a particle without shear stiffness,
     /// [`crate::limits_nd::bound_tracking`] "Under APIC").
@@ -14,7 +14,9 @@ impl<const D: usize> StabilityNd<D> {
         self.config.bound_drift >= 0.0
             && match self.config.transfer {
                 TransferNd::Flip => true,
-                TransferNd::Apic { .. } => self.refreshes > 0 && !self.tracking.fluid_seen,
+                TransferNd::Apic { .. } => {
+                    self.tracked.refreshes > 0 && !self.tracked.tracking.fluid_seen
+                }
             }
     }
 
@@ -28,7 +30,8 @@ impl<const D: usize> StabilityNd<D> {
     /// runs to the end without a rejection).
     pub(super) fn bound_threshold(&self, view: &ViewNd<'_, D>) -> f64 {
         let supplied = view_supplies_bound(view) && self.config.transfer == TransferNd::Flip;
-        self.tracking
+        self.tracked
+            .tracking
             .threshold(self.config.bound_slack, self.config.product_cost, supplied)
     }
 
@@ -36,20 +39,21 @@ impl<const D: usize> StabilityNd<D> {
     /// it is finite and the last Lanczos run is younger than `bound_age`; `None` ends
     /// bound mode (a refresh follows).
     pub(super) fn bound_proposal(&mut self, view: &ViewNd<'_, D>) -> Option<f64> {
-        if !self.tracking.active || self.lambda.is_none() {
+        if !self.tracked.tracking.active || self.tracked.lambda.is_none() {
             return None;
         }
-        if self.age >= self.config.bound_age {
-            self.tracking.active = false;
+        if self.tracked.age >= self.config.bound_age {
+            self.tracked.tracking.active = false;
             return None;
         }
         let bound = self
+            .tracked
             .tracking
             .bound_of(view, Self::agreement(&*self.reduce, view));
         if bound.is_finite() && bound > 0.0 {
             Some(bound)
         } else {
-            self.tracking.active = false;
+            self.tracked.tracking.active = false;
             None
         }
     }
@@ -60,7 +64,7 @@ impl<const D: usize> StabilityNd<D> {
     /// APIC"). One pass over
     /// `μ_t` at a refresh, on APIC runs only, until one is met.
     pub(super) fn note_fluid(&mut self, view: &ViewNd<'_, D>) {
-        if self.config.transfer == TransferNd::Flip || self.tracking.fluid_seen {
+        if self.config.transfer == TransferNd::Flip || self.tracked.tracking.fluid_seen {
             return;
         }
         // `μ_t ≤ 0` or not a number.
@@ -69,9 +73,45 @@ impl<const D: usize> StabilityNd<D> {
         if any {
             // The raw-bound policy from here on, without the calibration's leftovers: its
             // reference and the scale of the last re-anchoring (generic path).
-            self.tracking.fluid_seen = true;
-            self.tracking.reference = None;
-            self.tracking.scale = 0.0;
+            self.tracked.tracking.fluid_seen = true;
+            self.tracked.tracking.reference = None;
+            self.tracked.tracking.scale = 0.0;
+        }
+    }
+
+    /// After a refresh to `lambda`: whether the element bound is worth a look (it is
+    /// `bound` where the caller evaluated it just before), and if so the bound policy's
+    /// reference and the calibration taken from it ([`crate::limits_nd::bound_tracking`]).
+    pub(super) fn bound_after_refresh(
+        &mut self,
+        view: &ViewNd<'_, D>,
+        lambda: f64,
+        bound: Option<f64>,
+    ) {
+        let threshold = self.bound_threshold(view);
+        let look = bound.is_some()
+            || self.calibrating()
+            || self.config.bound_slack >= 0.0
+                && self
+                    .tracked
+                    .tracking
+                    .worth_a_look(threshold, view_supplies_bound(view));
+        if look {
+            let bound = match bound {
+                Some(b) => b,
+                None => self
+                    .tracked
+                    .tracking
+                    .bound_of(view, Self::agreement(&*self.reduce, view)),
+            };
+            self.tracked
+                .tracking
+                .after_refresh(lambda, bound, threshold);
+            if self.calibrating() {
+                self.tracked.tracking.calibrate(lambda, bound);
+            }
+        } else {
+            self.tracked.tracking.skipped_refresh();
         }
     }
 }
