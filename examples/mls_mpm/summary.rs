@@ -87,7 +87,7 @@ impl PassTotals {
     }
 
     /// `½ σ:C⁻¹:σ · det(F) V⁰` with the model's small-strain moduli: the energy the
-    /// library's growth monitor sums in its own pass (`limits_nd::GrowthNd::energies`)
+    /// library's growth monitor sums in its own pass (`growth::Growth::energies`)
     /// at rest moduli — with the view's tangent pair its pass weighs the same stress by a
     /// slightly different `C⁻¹` (the generic path, `--generic`), while this one keeps a
     /// fixed quadratic form of the stress, which an elastic rebound does not raise. (The fluid's own

@@ -14,7 +14,7 @@
 //!
 //! * `strain`: without a summary the growth monitor sums the complementary energy
 //!   `½ σ_p : C_p⁻¹ : σ_p · det(F_p) V⁰_p` with the state's tangent moduli
-//!   (`mpm_dt::limits_nd::growth::GrowthNd::energies`); a solver hands over the same sum to
+//!   (`mpm_dt::growth::Growth::energies`); a solver hands over the same sum to
 //!   keep the monitor's judgement unchanged, or its material's own stored energy.
 //! * `element_bound`: `λ_p = (V_p/m_p) min(λ̄(H_p) max(dλ + 2μ, 2μ), tr(H_p) max(λ + 2μ, 2μ))`
 //!   with `H_p = Σ_i ∇S_ip ∇S_ipᵀ/S_ip` (`mpm_dt::limits_nd::element_bound::from_metric`);
