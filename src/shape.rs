@@ -73,6 +73,22 @@ pub(crate) fn floor(x: f64) -> f64 {
     }
 }
 
+/// [`floor`] with the floor also as an integer, `(⌊x⌋, ⌊x⌋ as i64)`: one truncation for
+/// both, where `floor(x) as i64` converts twice (the second time with the checks of a
+/// saturating cast). The same pair as `(floor(x), floor(x) as i64)` for every `x`: below
+/// `2⁵³` in magnitude the floor is exact either way; from there up every float is an
+/// integer (no correction); past `±2⁶³` and for NaN both saturate alike.
+#[inline(always)]
+pub(crate) fn floor_index(x: f64) -> (f64, i64) {
+    let i = x as i64;
+    let t = i as f64;
+    if t > x {
+        (t - 1.0, i.saturating_sub(1))
+    } else {
+        (t, i)
+    }
+}
+
 /// The unit hat `N(r) = max(0, 1 − |r|/h)`.
 #[inline(always)]
 fn hat(r: f64, inv_h: f64) -> f64 {
@@ -122,6 +138,36 @@ impl Shape {
 #[cfg(test)]
 mod tests {
     use super::floor;
+
+    /// [`super::floor_index`] is the pair `(floor(x), floor(x) as i64)`, bit for bit, also
+    /// for non-finite and huge values.
+    #[test]
+    fn floor_index_is_floor_and_its_cast() {
+        let mut values = vec![
+            0.0,
+            -0.0,
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            9.3e18,
+            -9.3e18,
+            i64::MAX as f64,
+            i64::MIN as f64,
+            4.5e15,
+            -4.5e15,
+            f64::MIN_POSITIVE,
+            -f64::MIN_POSITIVE,
+        ];
+        for k in -3000..3000 {
+            let x = k as f64 * 0.017_3;
+            values.extend([x, x.next_up(), x.next_down(), k as f64]);
+        }
+        for x in values {
+            let (t, i) = super::floor_index(x);
+            assert_eq!(t.to_bits(), floor(x).to_bits(), "x {x}");
+            assert_eq!(i, floor(x) as i64, "x {x}");
+        }
+    }
 
     /// The libm-free floor equals `f64::floor` over the positions a grid holds (as numbers:
     /// `⌊−0⌋` is `+0` here, which adds to the node offsets exactly as `−0` does).

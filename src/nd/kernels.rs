@@ -84,42 +84,84 @@ pub(crate) fn axis_factors_inv<const D: usize, S: AxisShape>(
     l: &Vector<D>,
     inv_l: &[f64; D],
 ) -> Option<[AxisFactors; D]> {
-    let n_axis = S::NODES;
     let mut out = [AxisFactors::default(); D];
-    for (a, f) in out.iter_mut().enumerate() {
-        let st = S::stencil_inv(x[a] - grid.origin[a], l[a], grid.h[a], inv_l[a], inv_h[a]);
-        f.s = st.s;
-        f.d = st.d;
-        if grid.boundary[a] == Boundary::Periodic {
-            // One wrap for the first node; the next ones wrap by a comparison (a loop: an
-            // axis of fewer cells than the stencil's nodes wraps more than once).
-            let n = grid.cells[a];
-            // Inside the box already for all but the particles near its upper end: no
-            // integer division there.
-            let first = match usize::try_from(st.first) {
-                Ok(i) if i < n => i,
-                _ => st.first.rem_euclid(n as i64) as usize,
-            };
-            for k in 0..n_axis {
-                let mut i = first + k;
+    axis_factors_into::<D, S>(grid, strides, (inv_h, inv_l), x, l, &mut out).then_some(out)
+}
+
+/// [`axis_factors_inv`] written into `out`, a pass's own buffer (`false`: the stencil
+/// leaves the stored nodes, `out` then partly written). Returned in an `Option` the
+/// factors are copied once more on the stack, and in 3D that copy reads back as wide
+/// loads the narrow stores of the offsets just made: a stall the step paid per stencil.
+#[inline(always)]
+pub(crate) fn axis_factors_into<const D: usize, S: AxisShape>(
+    grid: &GridNd<D>,
+    strides: &[usize; D],
+    (inv_h, inv_l): (&[f64; D], &[f64; D]),
+    x: &Vector<D>,
+    l: &Vector<D>,
+    out: &mut [AxisFactors; D],
+) -> bool {
+    let axis = |a: usize, f: &mut AxisFactors| {
+        axis_factor_into::<D, S>(grid, strides, (inv_h[a], inv_l[a]), x, l, a, f)
+    };
+    // The axes one by one with constant indices (a loop over them is not unrolled): the
+    // factors can then stay in registers for the row that reads them.
+    match out.as_mut_slice() {
+        [f0, f1] => axis(0, f0) && axis(1, f1),
+        [f0, f1, f2] => axis(0, f0) && axis(1, f1) && axis(2, f2),
+        rest => rest.iter_mut().enumerate().all(|(a, f)| axis(a, f)),
+    }
+}
+
+/// Axis `a` of [`axis_factors_into`], into `f`.
+#[inline(always)]
+fn axis_factor_into<const D: usize, S: AxisShape>(
+    grid: &GridNd<D>,
+    strides: &[usize; D],
+    (inv_h, inv_l): (f64, f64),
+    x: &Vector<D>,
+    l: &Vector<D>,
+    a: usize,
+    f: &mut AxisFactors,
+) -> bool {
+    let n_axis = S::NODES;
+    let st = S::stencil_inv(x[a] - grid.origin[a], l[a], grid.h[a], inv_l, inv_h);
+    f.s = st.s;
+    f.d = st.d;
+    if grid.boundary[a] == Boundary::Periodic {
+        // One wrap for the first node; the next ones wrap by a comparison (a loop only on
+        // an axis of fewer cells than the stencil's nodes, which wraps more than once).
+        let n = grid.cells[a];
+        // Inside the box already for all but the particles near its upper end: no integer
+        // division there.
+        let first = match usize::try_from(st.first) {
+            Ok(i) if i < n => i,
+            _ => st.first.rem_euclid(n as i64) as usize,
+        };
+        for k in 0..n_axis {
+            let mut i = first + k;
+            if n >= n_axis {
+                // `first + k < n + n_axis ≤ 2n`: at most one wrap.
+                i -= if i >= n { n } else { 0 };
+            } else {
                 while i >= n {
                     i -= n;
                 }
-                f.offset[k] = (i * strides[a]) as u32;
             }
-            continue;
+            f.offset[k] = (i * strides[a]) as u32;
         }
-        for k in 0..n_axis {
-            f.offset[k] = match grid.storage_along(a, st.first + k as i64) {
-                Some(i) => (i * strides[a]) as u32,
-                // A padding slot (weight and derivative zero) past the ghost node: any
-                // stored node will do.
-                None if st.s[k] == 0.0 && st.d[k] == 0.0 => 0,
-                None => return None,
-            };
-        }
+        return true;
     }
-    Some(out)
+    for k in 0..n_axis {
+        f.offset[k] = match grid.storage_along(a, st.first + k as i64) {
+            Some(i) => (i * strides[a]) as u32,
+            // A padding slot (weight and derivative zero) past the ghost node: any stored
+            // node will do.
+            None if st.s[k] == 0.0 && st.d[k] == 0.0 => 0,
+            None => return false,
+        };
+    }
+    true
 }
 
 /// Completes the nodal sums `(Σ S m, Σ S m v, −Σ V σ ∇S)` over the processes of a split

@@ -113,7 +113,7 @@ impl AxisShape for GimpAxis {
     fn stencil_inv(x: f64, l: f64, h: f64, inv_l: f64, inv_h: f64) -> AxisStencil {
         let h_over_l = h * inv_l;
         let qa = (x - 0.5 * l) * inv_h;
-        let first = crate::shape::floor(qa);
+        let (first, first_index) = crate::shape::floor_index(qa);
         let xa = qa - first;
         let xb = xa + l * inv_h;
         let t = xb.min(1.0);
@@ -123,7 +123,7 @@ impl AxisShape for GimpAxis {
         let d0 = (xa - t) * inv_l;
         let d2 = u * inv_l;
         AxisStencil {
-            first: first as i64,
+            first: first_index,
             s: [s0, 1.0 - s0 - s2, s2],
             d: [d0, -(d0 + d2), d2],
         }
@@ -148,10 +148,10 @@ impl AxisShape for BSplineAxis {
     #[inline(always)]
     fn stencil_inv(x: f64, _: f64, _: f64, _: f64, inv_h: f64) -> AxisStencil {
         let q = x * inv_h;
-        let base = crate::shape::floor(q - 0.5);
+        let (base, first) = crate::shape::floor_index(q - 0.5);
         let f = q - base; // in [0.5, 1.5)
         AxisStencil {
-            first: base as i64,
+            first,
             s: [
                 0.5 * (1.5 - f) * (1.5 - f),
                 0.75 - (f - 1.0) * (f - 1.0),

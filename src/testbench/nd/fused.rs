@@ -11,14 +11,16 @@
 //! two passes (a grid split into slabs) cannot fuse them and takes the two passes.
 
 use super::material::LameCache;
+use super::prefetch;
+use super::row_sums::{Gather, Scatter};
 use super::threaded::{threaded_step, ThreadScratch};
 use super::update::{self, Committed, ParticleFault, Written};
 use super::MaterialNd;
 use crate::nd::factor_metric::ParticleBounds;
-use crate::nd::factors::{visit_row_with, RowVisitor};
-use crate::nd::kernels::axis_factors_inv;
+use crate::nd::factors::AxisFactors;
+use crate::nd::kernels::axis_factors_into;
 use crate::nd::shape::{AxisShape, BSplineAxis, GimpAxis, LinearAxis};
-use crate::nd::{GridNd, ShapeNd, SummaryNd, Tensor, Vector};
+use crate::nd::{GridNd, ShapeNd, SummaryNd, Vector};
 
 /// What a fused step reads besides the committed particles.
 pub(super) struct FusedInputs<'a, const D: usize> {
@@ -161,7 +163,7 @@ fn fused_step_as<const D: usize, S: AxisShape>(
     let n_axis = S::NODES;
     let strides: [usize; D] = std::array::from_fn(|a| grid.stride(a));
     let sums = sums.zeroed(grid.n_nodes());
-    let (node_mass, node_mv, node_force) = (sums.mass, sums.momentum, sums.force);
+    let mut scatter = Scatter::new(sums.mass, sums.momentum, sums.force);
     let mut outcome = FusedOutcome {
         summary: SummaryNd::zero(true),
         unformed: None,
@@ -170,19 +172,24 @@ fn fused_step_as<const D: usize, S: AxisShape>(
     // once per run of one material: the same quotients as formed where they are used.
     let inv_h: [f64; D] = std::array::from_fn(|a| 1.0 / grid.h[a]);
     let mut lame = LameCache::default();
+    // One particle's factors at a time, in one buffer ([`axis_factors_into`]).
+    let mut factors = [AxisFactors::default(); D];
     for p in 0..from.x.len() {
+        // The trial's lines a few particles on, to be in the cache when written.
+        let ahead = p + prefetch::AHEAD;
+        prefetch::line_of(into.x, ahead);
+        prefetch::line_of(into.v, ahead);
+        prefetch::line_of(into.f, ahead);
+        prefetch::line_of(into.sigma, ahead);
+        prefetch::line_of(into.density, ahead);
         let domain = &inputs.domain[p];
         let inv_l: [f64; D] = std::array::from_fn(|a| 1.0 / domain[a]);
         // Grid → particle from the committed position's stencil.
-        let mut gather = Gather {
-            node_a: from.node_a,
-            node_v1: inputs.node_v1,
-            acc: Vector::<D>::zeros(),
-            l: Tensor::<D>::zeros(),
-        };
+        let mut gather = Gather::new(from.node_a, inputs.node_v1);
         let x_old = &from.x[p];
-        if let Some(f) = axis_factors_inv::<D, S>(grid, &strides, &inv_h, x_old, domain, &inv_l) {
-            visit_row_with(&f, n_axis, &mut gather);
+        let inv = (&inv_h, &inv_l);
+        if axis_factors_into::<D, S>(grid, &strides, inv, x_old, domain, &mut factors) {
+            gather.add_row(&factors, n_axis);
         }
         let (material, old) = (
             &inputs.material[p],
@@ -208,7 +215,7 @@ fn fused_step_as<const D: usize, S: AxisShape>(
             (None, None) => (f64::NAN, f64::NAN),
         };
         // Particle → grid at the new position, as `kernels::particle_to_grid` adds it.
-        let factors = axis_factors_inv::<D, S>(grid, &strides, &inv_h, &u.x, domain, &inv_l);
+        let formed = axis_factors_into::<D, S>(grid, &strides, inv, &u.x, domain, &mut factors);
         let mv = u.v * mp;
         let vol = u.det_f * vol0; // `det_f` is `det(F)` of the new `F`
         let vs = u.sigma * (-vol);
@@ -218,25 +225,13 @@ fn fused_step_as<const D: usize, S: AxisShape>(
                 density,
                 &u.v,
                 vol / mp,
-                factors.as_ref().map(|f| (f, n_axis)),
+                formed.then_some((&factors, n_axis)),
             );
         }
-        match &factors {
-            Some(f) => visit_row_with(
-                f,
-                n_axis,
-                &mut Scatter {
-                    mass: node_mass,
-                    momentum: node_mv,
-                    force: node_force,
-                    mp,
-                    mv,
-                    vs,
-                },
-            ),
-            None => {
-                outcome.unformed.get_or_insert(p);
-            }
+        if formed {
+            scatter.add_row(&factors, n_axis, mp, mv, vs);
+        } else {
+            outcome.unformed.get_or_insert(p);
         }
         into.x[p] = u.x;
         into.v[p] = u.v;
@@ -245,39 +240,4 @@ fn fused_step_as<const D: usize, S: AxisShape>(
         into.density[p] = density;
     }
     Ok(outcome)
-}
-
-/// The gather of grid → particle: `Σ S a_i` and `Σ v_iⁿ⁺¹ ⊗ ∇S`, in row order.
-pub(super) struct Gather<'a, const D: usize> {
-    pub node_a: &'a [Vector<D>],
-    pub node_v1: &'a [Vector<D>],
-    pub acc: Vector<D>,
-    pub l: Tensor<D>,
-}
-
-impl<const D: usize> RowVisitor<D> for Gather<'_, D> {
-    #[inline(always)]
-    fn visit(&mut self, _: usize, i: usize, w: f64, g: Vector<D>) {
-        self.acc += self.node_a[i] * w;
-        self.l += self.node_v1[i] * g.transpose();
-    }
-}
-
-/// One particle's share of particle → grid: `S m`, `S m v` and `−V σ ∇S` = `vs ∇S`.
-struct Scatter<'a, const D: usize> {
-    mass: &'a mut [f64],
-    momentum: &'a mut [Vector<D>],
-    force: &'a mut [Vector<D>],
-    mp: f64,
-    mv: Vector<D>,
-    vs: Tensor<D>,
-}
-
-impl<const D: usize> RowVisitor<D> for Scatter<'_, D> {
-    #[inline(always)]
-    fn visit(&mut self, _: usize, i: usize, w: f64, g: Vector<D>) {
-        self.mass[i] += w * self.mp;
-        self.momentum[i] += self.mv * w;
-        self.force[i] += self.vs * g;
-    }
 }

@@ -26,8 +26,9 @@
 //! threaded run differs from an unthreaded one by round-off. Cost: 8 bytes per particle
 //! (its slab and its place in the sorted order).
 
-use super::fused::{FusedInputs, FusedOutcome, Gather, NodalSums};
+use super::fused::{FusedInputs, FusedOutcome, NodalSums};
 use super::material::LameCache;
+use super::row_sums::Gather;
 use super::update::{update_particle, Committed, ParticleFault, Written};
 use crate::nd::factor_metric::ParticleBounds;
 use crate::nd::factors::{visit_row_with, RowVisitor};
@@ -233,18 +234,13 @@ fn update_chunk<const D: usize, S: AxisShape>(
     let mut lame = LameCache::default();
     for k in 0..x.len() {
         let p = start + k;
-        let mut gather = Gather {
-            node_a: from.node_a,
-            node_v1: inputs.node_v1,
-            acc: Vector::<D>::zeros(),
-            l: Tensor::<D>::zeros(),
-        };
+        let mut gather = Gather::new(from.node_a, inputs.node_v1);
         let domain = &inputs.domain[p];
         let inv_l: [f64; D] = std::array::from_fn(|a| 1.0 / domain[a]);
         if let Some(fs) =
             axis_factors_inv::<D, S>(grid, &strides, &inv_h, &from.x[p], domain, &inv_l)
         {
-            visit_row_with(&fs, S::NODES, &mut gather);
+            gather.add_row(&fs, S::NODES);
         }
         let material = &inputs.material[p];
         let old = (&from.x[p], &from.v[p], &from.f[p], &from.sigma[p]);

@@ -156,15 +156,11 @@ pub(super) fn update_particle<const D: usize>(
             }
         }
     }
-    for (name, ok) in [
-        ("x", x.iter().all(|c| c.is_finite())),
-        ("v", v.iter().all(|c| c.is_finite())),
-        ("sigma", sigma.iter().all(|c| c.is_finite())),
-        ("F", f.iter().all(|c| c.is_finite())),
-    ] {
-        if !ok {
-            return Err(ParticleFault::NonFinite(name, p));
-        }
+    // `c · 0` is `±0` for a finite `c` and NaN otherwise: one branch-free sum tells whether
+    // every value is finite, and the field is named only on the rare failure.
+    let probe = (x * 0.0 + v * 0.0).sum() + (sigma * 0.0 + f * 0.0).sum();
+    if probe != 0.0 {
+        non_finite(p, (&x, &v, &sigma, &f))?;
     }
     let j = crate::nd::det(&f);
     if j <= 0.0 {
@@ -177,6 +173,25 @@ pub(super) fn update_particle<const D: usize>(
         sigma,
         det_f: j,
     })
+}
+
+/// The first non-finite field of a particle's update, in the order x, v, σ, F.
+#[cold]
+fn non_finite<const D: usize>(
+    p: usize,
+    (x, v, sigma, f): (&Vector<D>, &Vector<D>, &Tensor<D>, &Tensor<D>),
+) -> Result<(), ParticleFault> {
+    for (name, ok) in [
+        ("x", x.iter().all(|c| c.is_finite())),
+        ("v", v.iter().all(|c| c.is_finite())),
+        ("sigma", sigma.iter().all(|c| c.is_finite())),
+        ("F", f.iter().all(|c| c.is_finite())),
+    ] {
+        if !ok {
+            return Err(ParticleFault::NonFinite(name, p));
+        }
+    }
+    Ok(())
 }
 
 /// Completes the nodal sums `Σ_p S m`, `Σ_p S m v`, `−Σ_p V σ ∇S` over the processes of a
