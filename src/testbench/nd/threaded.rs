@@ -28,11 +28,12 @@
 
 use super::fused::{FusedInputs, FusedOutcome, NodalSums};
 use super::material::LameCache;
+use super::prefetch;
 use super::row_sums::Gather;
 use super::update::{update_particle, Committed, ParticleFault, Written};
 use crate::nd::factor_metric::ParticleBounds;
-use crate::nd::factors::{visit_row_with, RowVisitor};
-use crate::nd::kernels::axis_factors_inv;
+use crate::nd::factors::{visit_row_with, AxisFactors, RowVisitor};
+use crate::nd::kernels::axis_factors_into;
 use crate::nd::shape::AxisShape;
 use crate::nd::{SummaryNd, Tensor, Vector};
 use rayon::prelude::*;
@@ -232,15 +233,23 @@ fn update_chunk<const D: usize, S: AxisShape>(
     } = chunk;
     let inv_h: [f64; D] = std::array::from_fn(|a| 1.0 / grid.h[a]);
     let mut lame = LameCache::default();
+    // One particle's factors at a time, in one buffer, and the chunk's lines prefetched
+    // ahead of their stores, as in [`super::fused`].
+    let mut factors = [AxisFactors::default(); D];
     for k in 0..x.len() {
         let p = start + k;
+        let ahead = k + prefetch::AHEAD;
+        prefetch::line_of(x, ahead);
+        prefetch::line_of(v, ahead);
+        prefetch::line_of(f, ahead);
+        prefetch::line_of(sigma, ahead);
+        prefetch::line_of(density, ahead);
         let mut gather = Gather::new(from.node_a, inputs.node_v1);
         let domain = &inputs.domain[p];
         let inv_l: [f64; D] = std::array::from_fn(|a| 1.0 / domain[a]);
-        if let Some(fs) =
-            axis_factors_inv::<D, S>(grid, &strides, &inv_h, &from.x[p], domain, &inv_l)
-        {
-            gather.add_row(&fs, S::NODES);
+        let inv = (&inv_h, &inv_l);
+        if axis_factors_into::<D, S>(grid, &strides, inv, &from.x[p], domain, &mut factors) {
+            gather.add_row(&factors, S::NODES);
         }
         let material = &inputs.material[p];
         let old = (&from.x[p], &from.v[p], &from.f[p], &from.sigma[p]);
@@ -396,13 +405,15 @@ unsafe fn scatter_slab<const D: usize, S: AxisShape>(
     let mut bounds = with_bounds.then(|| ParticleBounds::detached(h));
     let mut unformed = None;
     let inv_h: [f64; D] = std::array::from_fn(|a| 1.0 / grid.h[a]);
+    let mut factors = [AxisFactors::default(); D];
     for &p in particles {
         let p = p as usize;
         let (mp, vol0) = (inputs.mass[p], inputs.volume0[p]);
         let (x, v, f, sigma) = (&into.x[p], &into.v[p], &into.f[p], &into.sigma[p]);
         let l = &inputs.domain[p];
         let inv_l: [f64; D] = std::array::from_fn(|a| 1.0 / l[a]);
-        let factors = axis_factors_inv::<D, S>(grid, &strides, &inv_h, x, l, &inv_l);
+        let inv = (&inv_h, &inv_l);
+        let formed = axis_factors_into::<D, S>(grid, &strides, inv, x, l, &mut factors);
         let vol = crate::nd::det(f) * vol0;
         if let Some(b) = bounds.as_mut() {
             let moduli = match (&into.moduli, inputs.constant_moduli) {
@@ -416,20 +427,20 @@ unsafe fn scatter_slab<const D: usize, S: AxisShape>(
                 into.density[p],
                 v,
                 per_mass,
-                factors.as_ref().map(|f| (f, S::NODES)),
+                formed.then_some((&factors, S::NODES)),
             );
         }
-        let Some(fs) = factors else {
+        if !formed {
             unformed.get_or_insert(p);
             continue;
-        };
+        }
         let mut scatter = RawScatter {
             nodes,
             mp,
             mv: v * mp,
             vs: sigma * (-vol),
         };
-        visit_row_with(&fs, S::NODES, &mut scatter);
+        visit_row_with(&factors, S::NODES, &mut scatter);
     }
     (unformed, bounds)
 }
