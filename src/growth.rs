@@ -17,7 +17,7 @@
 //! | 1 | [`WindowMaxima`] | the checkerboard share of the nodal accelerations (eq 18), confirmed by the total energy; or the energy alone | window maxima increasing by `factor` | [`one_d`] |
 //! | 2, 3 | [`EnergyDrift<D>`] | the mechanical energy with gravity, summed with kept moduli or taken from the stepper's [`crate::nd::SummaryNd`] | a jump within a step, or a drift by `energy_tol` over `windows × window` steps | [`nd`] |
 //!
-//! The older names stay: [`GrowthMonitor`] is `Growth<1>` and [`GrowthNd<D>`] is
+//! Aliases: [`GrowthMonitor`] is `Growth<1>` and [`GrowthNd<D>`] is
 //! `Growth<D>`.
 //!
 //! On a growth rejection the controller lowers the stability safety factor of every limit by
@@ -146,10 +146,10 @@ where
     judged: Option<([u64; 2], SampleOf<D>)>,
 }
 
-/// The 1D growth monitor, `Growth<1>`: the older name, kept.
+/// The 1D growth monitor, `Growth<1>`: an alias.
 pub type GrowthMonitor = Growth<1>;
 
-/// The 2D/3D growth monitor, `Growth<D>`: the older name, kept.
+/// The 2D/3D growth monitor, `Growth<D>`: an alias.
 pub type GrowthNd<const D: usize> = Growth<D>;
 
 impl<const D: usize> Growth<D>

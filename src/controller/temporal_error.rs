@@ -1,6 +1,6 @@
 //! The temporal local error of the USL step (eqs 20–30) in 1D: the estimator
-//! [`RateKernels`] of [`crate::temporal::TemporalError<1>`] ([`TemporalError`], the older
-//! name, kept). What every dimension shares — the deferral, the judged-trial cache, the
+//! [`RateKernels`] of [`crate::temporal::TemporalError<1>`] ([`TemporalError`] is an
+//! alias). What every dimension shares — the deferral, the judged-trial cache, the
 //! metrics and verdict, the checkpoint state — is in [`crate::temporal::limit`]; the 1D
 //! estimate, its two passes of SIMD kernels ([`super::temporal_kernels`]) and its history of
 //! rates are here.
@@ -105,7 +105,7 @@ impl Scheduled for History {
     }
 }
 
-/// The 1D temporal-error limit, `TemporalError<1>`: the older name, kept.
+/// The 1D temporal-error limit, `TemporalError<1>`: an alias.
 ///
 /// **Buffers.** The rates of a judged trial become the history when the trial is accepted,
 /// and the history they replace is kept as `spare` and refilled by the next judgement, so

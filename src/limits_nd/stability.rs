@@ -104,7 +104,7 @@ use crate::limit::StepLimit;
 use crate::limit::{LimitError, Metrics};
 use crate::nd::ViewNd;
 use crate::reduce::{Reduce, SingleProcess};
-pub use crate::stability::limit::STABILITY;
+pub use crate::stability::limit::{StabilityNd, STABILITY};
 pub use checkpoint::TrackedNd;
 use guard::Staleness;
 use std::rc::Rc;

@@ -1,6 +1,6 @@
 //! The temporal local error of the USL step (eqs 20–30) in `d` dimensions: the estimator
-//! [`RateSweeps<D>`] of [`crate::temporal::TemporalError<D>`] ([`TemporalErrorNd<D>`], the
-//! older name, kept), with the same settings ([`TemporalErrorConfig`]) and the same scaled
+//! [`RateSweeps<D>`] of [`crate::temporal::TemporalError<D>`] ([`TemporalErrorNd<D>`] is an
+//! alias), with the same settings ([`TemporalErrorConfig`]) and the same scaled
 //! norm as the 1D one. What every dimension shares — the deferral, the judged-trial cache,
 //! the metrics and verdict, the checkpoint state — is in [`crate::temporal::limit`]; the
 //! sweeps over the particles, their pairing across processes and the history of rates are
@@ -84,7 +84,7 @@ use crate::nd::ViewNd;
 use crate::temporal::limit::{Estimate, Shared, TemporalDim, TemporalEstimator};
 use crate::temporal::{TemporalError, TemporalErrorConfig, TEMPORAL_ERROR};
 
-/// The temporal-error limit in `d` dimensions, `TemporalError<D>`: the older name, kept. It
+/// The temporal-error limit in `d` dimensions, `TemporalError<D>`: an alias. It
 /// proposes nothing itself (the controller's filter does, from the `dsm` it reports) and
 /// judges each trial by `dsm ≤ 1` (the estimate, its weights and its deferral are in the
 /// [module docs](self)). The per-particle arrays are allocated once per run and reused.

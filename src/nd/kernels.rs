@@ -90,8 +90,8 @@ pub(crate) fn axis_factors_inv<const D: usize, S: AxisShape>(
 
 /// [`axis_factors_inv`] written into `out`, a pass's own buffer (`false`: the stencil
 /// leaves the stored nodes, `out` then partly written). Returned in an `Option` the
-/// factors are copied once more on the stack, and in 3D that copy reads back as wide
-/// loads the narrow stores of the offsets just made: a stall the step paid per stencil.
+/// factors would be copied once more on the stack, and in 3D that copy reads back as wide
+/// loads the narrow stores of the offsets just made: a stall per stencil.
 #[inline(always)]
 pub(crate) fn axis_factors_into<const D: usize, S: AxisShape>(
     grid: &GridNd<D>,

@@ -23,9 +23,9 @@
 //! | 1 | [`BandedEq56`](super::one_d::BandedEq56) | the certified tracker (`LDLᵀ` inertia) or Lanczos on the `K_N` band | eq 58 on a cadence, and the proposal check `dt ≤ (1 + tol) dt_eq56` | [`super::one_d`] |
 //! | 2, 3 | [`GuardedEq56<D>`](crate::limits_nd::stability::GuardedEq56) | Lanczos behind a motion guard, the element bound, the APIC and full-map gains | — (accepts) | [`crate::limits_nd::stability`] |
 //!
-//! The older names stay: [`crate::stability::Stability`] (without a parameter) is
-//! `Stability<1>` and [`crate::limits_nd::StabilityNd<D>`] is `Stability<D>`; both are built
-//! by `new` from their dimension's settings ([`StabilitySettings`]: [`StabilityConfig`](super::StabilityConfig) in 1D,
+//! Aliases: [`crate::stability::Stability`] (without a parameter) is `Stability<1>` and
+//! [`crate::limits_nd::StabilityNd<D>`] is `Stability<D>`; both are built
+//! by `new` from their dimension's settings ([`StabilitySettings`]: [`StabilityConfig`] in 1D,
 //! [`crate::limits_nd::StabilityNdConfig`] in 2D/3D).
 
 use crate::dimension::{Dim, Dimension};
@@ -33,6 +33,9 @@ use crate::limit::{Judgement, LimitCall, LimitError, Metrics, Proposal, StepLimi
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 use std::borrow::Cow;
+
+// The 1D settings, also at their path in this module.
+pub use super::one_d::{Refresh, StabilityConfig, Tracking};
 
 /// The name of the limit in logs and statistics: `"stability"`.
 pub const STABILITY: &str = "stability";
@@ -48,7 +51,9 @@ pub struct Critical {
 }
 
 /// How the stability limit of one dimension `T` (a [`Dim`]) tracks `λmax` and judges a
-/// trial: the dimension-specific half of [`Stability`] (module docs). The rule keeps its own
+/// trial: the dimension-specific half of [`Stability`] (module docs). Each dimension's rule
+/// is fixed by [`StabilityDim`]; the trait documents what a rule provides, and a crate
+/// outside this one cannot put its own rule into a [`Stability`]. The rule keeps its own
 /// tracked state between steps; [`Stability`] holds the safety and calls the rule in the
 /// order of the [`StepLimit`] calls.
 pub trait StabilityRule<T: Dimension>: Clone + std::fmt::Debug {
@@ -152,7 +157,7 @@ where
     rule: RuleOf<D>,
 }
 
-/// The 2D/3D stability limit, `Stability<D>`: the older name, kept.
+/// The 2D/3D stability limit: an alias of `Stability<D>`.
 pub type StabilityNd<const D: usize> = Stability<D>;
 
 /// What a checkpoint stores: the safety, and the rule's tracked state beside it (one JSON
@@ -189,7 +194,7 @@ where
     }
 
     /// The limit's rule.
-    pub fn rule(&self) -> &RuleOf<D> {
+    pub fn rule(&self) -> &<Dim<D> as StabilityDim>::Rule {
         &self.rule
     }
 
@@ -285,9 +290,11 @@ where
             serde_json::from_value(state.clone()).map_err(restore_error)?;
         let invalid = |what: &str| restore_error(serde::de::Error::custom(what));
         if !(saved.safety > 0.0 && saved.safety <= self.rule.safety_ceiling()) {
-            return Err(invalid(
-                "safety: not in (0, the largest safety the limit takes]",
-            ));
+            return Err(invalid(&format!(
+                "safety = {} not in (0, {}]",
+                saved.safety,
+                self.rule.safety_ceiling()
+            )));
         }
         self.rule
             .restore(saved.tracked.into_owned())

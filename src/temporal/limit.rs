@@ -31,7 +31,7 @@
 //! | 1 | [`RateKernels`](crate::controller::RateKernels) | two passes of SIMD kernels | `controller/temporal_error.rs` (module docs: eqs 20–30, the weights, the first step's nodal rates, eq 44's balancing, the interpretations) |
 //! | 2, 3 | [`RateSweeps<D>`](crate::limits_nd::RateSweeps) | one sweep (two when a scale grew), threaded; particles matched by id on a split grid | [`crate::limits_nd::temporal_error`] |
 //!
-//! The older names stay: [`crate::controller::TemporalError`] is `TemporalError<1>` and
+//! Aliases: [`crate::controller::TemporalError`] is `TemporalError<1>` and
 //! [`crate::limits_nd::TemporalErrorNd<D>`] is `TemporalError<D>`.
 
 use super::deferral::{self, Deferral, DeferredTrial, Scheduled};

@@ -6,7 +6,7 @@
 //! pass stalls: `perf` put several per cent of the step's samples on the instructions
 //! just after those stores. Asking for the lines of the particle [`AHEAD`] places on
 //! (ordinary prefetches, which fetch a line without other sharers in the exclusive state
-//! a store needs) has them in the cache by the time they are written: measured 3–5 % on
+//! a store needs) has them in the cache by the time they are written: measured 3–6 % on
 //! the one-thread step at 10⁶ particles (distances 2 to 8 did alike). Prefetches change
 //! no value and never fault, past the arrays' end included.
 
