@@ -42,6 +42,9 @@
 //! (`controller_run`).
 #![allow(missing_docs)]
 
+#[path = "stability/timed.rs"]
+mod timed;
+
 use criterion::measurement::WallTime;
 use criterion::{criterion_group, criterion_main, BatchSize, BenchmarkGroup, Criterion};
 use mpm_dt::controller::{Controller, ControllerConfig};
@@ -52,12 +55,13 @@ use mpm_dt::stability::{
     CertifiedConfig, Eq56Operator, LambdaMaxTracker, LanczosConfig, NodalOperator, Refresh,
     Stability, StabilityConfig, SymmetricOperator, Tracking,
 };
+use mpm_dt::View;
 use mpm_dt::{Boundary, Grid, Shape, StepLimit, Stepper};
-use mpm_dt::{Judgement, LimitError, Proposal, RejectCause, View};
 use std::cell::RefCell;
 use std::hint::black_box;
 use std::rc::Rc;
 use std::time::{Duration, Instant};
+use timed::Timed;
 
 fn bench(c: &mut Criterion) {
     let (mut s, grid, dt) = warmed_bar();
@@ -406,56 +410,6 @@ fn bench_served_in_run(g: &mut Group<'_>, sk: &ReferenceStepper, dt: f64) {
             total
         })
     });
-}
-
-/// `Stability` as the controller runs it, timed: its `propose` per step.
-struct Timed {
-    inner: Stability,
-    /// (wall time, factorisations, Lanczos applications) of each proposal.
-    log: Rc<RefCell<Vec<(Duration, f64, f64)>>>,
-}
-
-impl StepLimit for Timed {
-    fn name(&self) -> &str {
-        self.inner.name()
-    }
-    fn propose(&mut self, state: &View<'_>) -> Result<Proposal, LimitError> {
-        let start = Instant::now();
-        let p = self.inner.propose(state);
-        let elapsed = start.elapsed();
-        if let Ok(p) = &p {
-            let metric = |k: &str| p.metrics.get(k).copied().unwrap_or(0.0);
-            self.log.borrow_mut().push((
-                elapsed,
-                metric("lambda_factorisations"),
-                metric("lanczos_applications"),
-            ));
-        }
-        p
-    }
-    fn judge(
-        &mut self,
-        before: &View<'_>,
-        after: &View<'_>,
-        dt: f64,
-    ) -> Result<Judgement, LimitError> {
-        self.inner.judge(before, after, dt)
-    }
-    fn accepted(&mut self, before: &View<'_>, after: &View<'_>, dt: f64) {
-        self.inner.accepted(before, after, dt)
-    }
-    fn reads_nodal_stiffness(&self) -> bool {
-        self.inner.reads_nodal_stiffness()
-    }
-    fn reads_element_bound(&self) -> bool {
-        self.inner.reads_element_bound()
-    }
-    fn rejected(&mut self, dt: f64, cause: RejectCause) {
-        self.inner.rejected(dt, cause)
-    }
-    fn scale_safety(&mut self, factor: f64) {
-        self.inner.scale_safety(factor)
-    }
 }
 
 /// The per-step cost of the default `Stability` limit in a real run — 400 controlled steps

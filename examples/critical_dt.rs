@@ -44,17 +44,17 @@
 //! failed).
 
 mod common;
+#[path = "critical_dt/full_map_1d.rs"]
+mod full_map_1d;
 
+use full_map_1d::full_map_1d;
 use mpm_dt::limits_nd::critical;
 use mpm_dt::limits_nd::full_map::FULL_MAP_LIMIT;
 use mpm_dt::scenario::Scenario;
-use mpm_dt::stability::nodal_full_map::{
-    critical_dt_nodal_1d, NodalCritical, NODAL_FULL_MAP_LIMIT,
-};
 use mpm_dt::stability::operator::spectral_norm;
 use mpm_dt::stability::{
-    bound58, Bound58Reading, EmpiricalConfig, EmpiricalCritical, Eq56Operator, FullMap,
-    FullMapConfig, LambdaMaxTracker, LanczosConfig, MonotoneScan, Protocol, SoundSpeed, Stability,
+    bound58, Bound58Reading, EmpiricalConfig, EmpiricalCritical, Eq56Operator, LambdaMaxTracker,
+    LanczosConfig, MonotoneScan, Protocol, SoundSpeed, Stability,
 };
 use mpm_dt::{StepLimit, Stepper};
 use serde_json::{json, Value};
@@ -397,36 +397,6 @@ fn add_run_columns(
 }
 
 /// The nodal full map, the dense one and why the former is `null` ([`full_map_1d`]).
-type FullMap1d = (Option<NodalCritical>, Option<f64>, Option<String>);
-
-/// The full map of a 1D state: from the nodes (`None` above the reduction's limit or when
-/// its Lanczos iteration does not settle), the dense cross-check on `small` layouts, and
-/// why the former is `null` when it is.
-fn full_map_1d(
-    view: &mpm_dt::View<'_>,
-    dt_eq56: f64,
-    small: bool,
-) -> Result<FullMap1d, Box<dyn std::error::Error>> {
-    let nodal_small = view.node_active.iter().filter(|&&a| a).count() <= NODAL_FULL_MAP_LIMIT;
-    let full = critical_dt_nodal_1d(view)?.filter(|c| c.converged);
-    let dense = if small {
-        Some(FullMap::new(view)?.critical_dt(0.5 * dt_eq56, FullMapConfig::default())?)
-    } else {
-        None
-    };
-    tracing::info!(dt_full = ?full.map(|c| c.dt), ?dense, "full map");
-    let skipped = match (nodal_small, full) {
-        (false, _) => Some(format!(
-            "dt_full_map above {NODAL_FULL_MAP_LIMIT} active nodal unknowns"
-        )),
-        (true, None) => {
-            Some("dt_full_map: no result (the Lanczos iteration did not settle)".into())
-        }
-        (true, Some(_)) => None,
-    };
-    Ok((full, dense, skipped))
-}
-
 /// The eq 58 rows, the bisection and the monotonicity scan around its answer.
 type RealRuns = (Vec<Value>, (EmpiricalCritical, MonotoneScan));
 

@@ -47,8 +47,10 @@ mod common;
 mod side_by_side;
 #[path = "simulate/state_stream.rs"]
 mod state_stream;
+#[path = "simulate/summaries.rs"]
+mod summaries;
 
-use mpm_dt::controller::{Controller, ControllerConfig, Decision, Stats};
+use mpm_dt::controller::{Controller, ControllerConfig};
 use mpm_dt::nd::problems::PlaneWave;
 use mpm_dt::nd::scenario::ScenarioNd;
 use mpm_dt::nd::SolverNd;
@@ -59,6 +61,7 @@ use serde_json::{json, Value};
 use std::process::ExitCode;
 use std::rc::Rc;
 use std::time::Instant;
+use summaries::{bound_ratio_summary, failure_message, stats_summary};
 
 const USAGE: &str =
     "usage: simulate --scenario FILE [--json] [--fixed-dt DT --steps K] [--compare [--repeat N]] [--threads N]";
@@ -137,18 +140,6 @@ fn parse_args() -> Result<Option<Args>, String> {
     }))
 }
 
-fn stats_summary(stats: &Stats) -> Value {
-    json!({
-        "steps_accepted": stats.accepted,
-        "steps_rejected": stats.rejected,
-        "dt_min": stats.dt_min,
-        "dt_min_chosen": stats.dt_min_chosen,
-        "dt_mean": stats.dt_mean(),
-        "dt_max": stats.dt_max,
-        "binding": stats.binding,
-    })
-}
-
 /// `k` plain steps of `dt` (no controller); the first failure's message, if any.
 fn fixed_steps<const D: usize>(s: &mut dyn Stepper<D>, dt: f64, k: u64) -> Option<String>
 where
@@ -220,34 +211,6 @@ where
     });
     // The state is streamed when the summary is printed, not built here.
     (out, Some(state_stream::writer(s)))
-}
-
-/// A failed controlled run's message: the error and, if there was one, the last rejection's
-/// limit and message.
-fn failure_message(e: impl std::fmt::Display, last_rejection: Option<&Decision>) -> String {
-    let why = last_rejection
-        .map(|d| {
-            format!(
-                "; last rejection by {} ({})",
-                d.rejected_by.as_deref().unwrap_or("?"),
-                d.message.as_deref().unwrap_or("no message")
-            )
-        })
-        .unwrap_or_default();
-    format!("{e}{why}")
-}
-
-/// The element bound over the Lanczos value at the refreshes as `[min, median, max]`, or
-/// null without a refresh.
-fn bound_ratio_summary(bound_ratios: &[f64]) -> Value {
-    match bound_ratios.iter().copied().reduce(f64::min) {
-        Some(lo) => json!([
-            lo,
-            common::repeats::median(bound_ratios),
-            bound_ratios.iter().copied().fold(lo, f64::max)
-        ]),
-        None => json!(null),
-    }
 }
 
 fn run_nd<const D: usize>(

@@ -1,6 +1,8 @@
 //! The 1D comparison's ratios and its table (module docs of `compare`).
 
+use crate::args::Args;
 use crate::PolicyResult;
+use mpm_dt::scenario::Scenario;
 use serde::Serialize;
 
 /// Step ratio `steps(policy)/steps(mpm-dt)` and error ratio against one fixed rule.
@@ -152,5 +154,66 @@ pub(crate) fn print_table(
     }
     if large_amplitude {
         println!("note: large amplitude — the linear standing wave is a reference, not the exact solution");
+    }
+}
+
+/// Prints the comparison: one JSON document with `--json`, else the table, the wall-ratio
+/// ranges and the errors of the fixed rules with mpm-dt's step count.
+pub(crate) fn print_results(
+    args: &Args,
+    scenario: &Scenario,
+    particles: usize,
+    results: &[PolicyResult],
+    repeat: usize,
+    pair_ranges: &[(String, [f64; 2])],
+    same_count: &[(f64, Option<f64>)],
+) {
+    let ratios = ratios(results);
+    // Displacement amplitude `A/κ` (velocity amplitude `A c`, `ω = c κ`) above half a cell:
+    // particles cross cells and the linear small-amplitude solution is only a reference.
+    let large_amplitude = scenario.standing_wave().is_some_and(|w| {
+        let displacement = w.amplitude / w.wavenumber();
+        displacement > 0.5 * scenario.length / scenario.cells as f64
+    });
+    if args.json {
+        let doc = serde_json::json!({
+            "dim": 1,
+            "scenario": args.scenario,
+            "t_end": scenario.t_end,
+            "particles": particles,
+            "exact_solution_is_reference_only": large_amplitude,
+            "policies": results,
+            "ratios": ratios,
+            "tracking": args.tracking.as_ref().map_or("scenario", |t| t.0.as_str()),
+            "repeats": repeat,
+            "wall_ratio_of_pairs": pair_ranges
+                .iter()
+                .map(|(against, range)| serde_json::json!({"against": against, "range": range}))
+                .collect::<Vec<_>>(),
+            "matched_same_step_count": same_count
+                .iter()
+                .map(|&(alpha, error)| serde_json::json!({"alpha": alpha, "velocity_error_linf": error}))
+                .collect::<Vec<_>>(),
+        });
+        println!("{doc}");
+    } else {
+        print_table(&args.scenario, results, &ratios, large_amplitude);
+        if repeat > 1 {
+            println!(
+                "wall times: medians of {repeat} interleaved runs per policy (the matched rule: one)"
+            );
+            for (against, [lo, hi]) in pair_ranges {
+                println!("mpm-dt vs {against}: wall ratio within a repeat {lo:.3} … {hi:.3}");
+            }
+        }
+        let errors: Vec<f64> = same_count.iter().filter_map(|&(_, e)| e).collect();
+        if errors.len() > 1 {
+            let lo = errors.iter().copied().fold(f64::INFINITY, f64::min);
+            let hi = errors.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            println!(
+                "fixed rules with mpm-dt's step count: {} multipliers, error {lo:.4e} … {hi:.4e}",
+                errors.len()
+            );
+        }
     }
 }

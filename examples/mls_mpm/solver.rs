@@ -19,8 +19,12 @@
 //! force operator, not the reference solver's.
 
 pub use super::model::Model;
+#[path = "kernels.rs"]
+mod kernels;
+
 use super::summary::{ParticleFields, PassTotals};
-use mpm_dt::nd::{GridNd, SummaryNd, Tensor, Vector, ViewNd, WeightsNd};
+use kernels::{bspline, tensors, vectors};
+use mpm_dt::nd::{GridNd, SummaryNd, ViewNd, WeightsNd};
 use mpm_dt::{Boundary, StepError, Stepper};
 use nalgebra::{Matrix2, Vector2};
 
@@ -204,22 +208,6 @@ impl MlsMpm {
             .sum();
         (kinetic, elastic, potential)
     }
-}
-
-/// Quadratic B-spline weights and their positions relative to the particle: for each axis
-/// the base lattice index `floor(x/h − ½)` and the three weights.
-fn bspline(x: f64, h: f64) -> (i64, [f64; 3], [f64; 3]) {
-    let xi = x / h;
-    let base = (xi - 0.5).floor();
-    let fx = xi - base;
-    let w = [
-        0.5 * (1.5 - fx).powi(2),
-        0.75 - (fx - 1.0).powi(2),
-        0.5 * (fx - 0.5).powi(2),
-    ];
-    // x_i − x_p in cells for the three nodes.
-    let dpos = [-fx, 1.0 - fx, 2.0 - fx];
-    (base as i64, w, dpos)
 }
 
 /// The new state's weights and grid fields from its particle fields (step 3 of the module
@@ -455,16 +443,6 @@ impl MlsMpm {
             split: None,
         }
     }
-}
-
-/// `Vector2<f64>` is `nd::Vector<2>` (the same nalgebra type).
-fn vectors(v: &[Vector2<f64>]) -> &[Vector<2>] {
-    v
-}
-
-/// `Matrix2<f64>` is `nd::Tensor<2>`.
-fn tensors(v: &[Matrix2<f64>]) -> &[Tensor<2>] {
-    v
 }
 
 impl Stepper<2> for MlsMpm {
