@@ -12,7 +12,11 @@
 //!   speed-of-sound cap, the tracked eq 56 limit, the temporal error, the growth monitor),
 //!   warmed up by a few steps first so that the cold λmax start is not in the samples;
 //! * `controlled_no_temporal` — the same with `temporal.enabled = false`, for the temporal
-//!   error's share.
+//!   error's share;
+//! * `rule-1t`, `controlled-1t`, `rule-2t`, `controlled-2t` — the rule and the controlled
+//!   step with the solver's step on 1 and 2 threads of its pool (`SolverNd::set_threads`)
+//!   and the limits' passes on as many threads of theirs (`Controller::with_threads`): the
+//!   controlled step's cost in bare steps when the solver is threaded.
 //!
 //! `cargo bench --bench controller_nd`; the ratio `controlled / rule` is the cost of one
 //! controlled step in bare steps.
@@ -29,23 +33,42 @@ use std::hint::black_box;
 mod common;
 
 /// A controller with the standard limits, warmed up by `warm` steps on `s`.
-fn warmed<const D: usize>(s: &mut SolverNd<D>, temporal: bool, warm: usize) -> Controller<D>
+fn warmed<const D: usize>(
+    s: &mut SolverNd<D>,
+    temporal: bool,
+    threads: Option<usize>,
+    warm: usize,
+) -> Controller<D>
 where
     Dim<D>: for<'a> Dimension<View<'a> = ViewNd<'a, D>>,
 {
     let mut config = ControllerConfig::default();
     config.temporal.enabled = temporal;
     let limits = standard_limits::<D>(&config, Vector::<D>::zeros());
-    let mut controller = match Controller::<D>::new(config, limits) {
-        Ok(c) => c,
-        Err(e) => panic!("bench set-up failed: {e}"),
-    };
+    let mut controller =
+        match Controller::<D>::new(config, limits).and_then(|c| c.with_threads(threads)) {
+            Ok(c) => c,
+            Err(e) => panic!("bench set-up failed: {e}"),
+        };
     for _ in 0..warm {
         if let Err(e) = controller.step(s, f64::INFINITY) {
             panic!("warm-up step failed: {e}");
         }
     }
     controller
+}
+
+/// The bench's solver, its step on `threads` threads of its pool (`None`: the calling thread).
+fn threaded_solver<const D: usize>(
+    cells: usize,
+    shape: ShapeNd,
+    threads: Option<usize>,
+) -> SolverNd<D> {
+    let mut s = solver::<D>(cells, shape);
+    if let Err(e) = s.set_threads(threads) {
+        panic!("bench set-up failed: {e}");
+    }
+    s
 }
 
 fn bench<const D: usize>(c: &mut Criterion, cells: usize, shapes: &[ShapeNd])
@@ -59,30 +82,40 @@ where
         group.throughput(Throughput::Elements(particles as u64));
         let id = |name: &str| BenchmarkId::new(format!("{shape:?}/{name}"), particles);
 
-        let mut s = solver::<D>(cells, shape);
-        group.bench_function(id("rule"), |b| {
-            b.iter(|| {
-                let unit = match SoundSpeed::unit_step(&s.view()) {
-                    Ok(u) => u,
-                    Err(e) => panic!("sound speed failed: {e}"),
-                };
-                if let Err(e) = s.try_step(black_box(0.4 * unit)) {
-                    panic!("step failed: {e}");
-                }
-                let _ = s.accept();
-            })
-        });
-
-        for (name, temporal) in [("controlled", true), ("controlled_no_temporal", false)] {
-            let mut s = solver::<D>(cells, shape);
-            let mut controller = warmed(&mut s, temporal, 5);
-            group.bench_function(id(name), |b| {
+        let modes = [
+            (
+                None,
+                "",
+                &[("controlled", true), ("controlled_no_temporal", false)][..],
+            ),
+            (Some(1), "-1t", &[("controlled", true)][..]),
+            (Some(2), "-2t", &[("controlled", true)][..]),
+        ];
+        for (threads, suffix, controlled) in modes {
+            let mut s = threaded_solver::<D>(cells, shape, threads);
+            group.bench_function(id(&format!("rule{suffix}")), |b| {
                 b.iter(|| {
-                    if let Err(e) = controller.step(&mut s, f64::INFINITY) {
-                        panic!("controlled step failed: {e}");
+                    let unit = match SoundSpeed::unit_step(&s.view()) {
+                        Ok(u) => u,
+                        Err(e) => panic!("sound speed failed: {e}"),
+                    };
+                    if let Err(e) = s.try_step(black_box(0.4 * unit)) {
+                        panic!("step failed: {e}");
                     }
+                    let _ = s.accept();
                 })
             });
+            for &(name, temporal) in controlled {
+                let mut s = threaded_solver::<D>(cells, shape, threads);
+                let mut controller = warmed(&mut s, temporal, threads, 5);
+                group.bench_function(id(&format!("{name}{suffix}")), |b| {
+                    b.iter(|| {
+                        if let Err(e) = controller.step(&mut s, f64::INFINITY) {
+                            panic!("controlled step failed: {e}");
+                        }
+                    })
+                });
+            }
         }
     }
     group.finish();

@@ -23,8 +23,14 @@ fn decisions() -> Vec<String> {
     .unwrap();
     let config = ControllerConfig::from_value(scenario.controller.clone().unwrap()).unwrap();
     let mut s = scenario.build().unwrap();
+    // The safety the log was recorded with (the 1D limit's default until it took the
+    // controller's 0.95).
     let limits: Vec<Box<dyn StepLimit>> = vec![Box::new(
-        Stability::new(StabilityConfig::default()).unwrap(),
+        Stability::new(StabilityConfig {
+            safety: 0.9,
+            ..StabilityConfig::default()
+        })
+        .unwrap(),
     )];
     let mut c = Controller::with_default_limits(config, limits).unwrap();
     let mut lines = Vec::new();

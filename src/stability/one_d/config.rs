@@ -11,7 +11,9 @@ use crate::stability::lambda_max::LanczosConfig;
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct StabilityConfig {
-    /// Fraction of `dt_eq56` proposed, in `(0, 1]` (default 0.9). Eq 56 is already
+    /// Fraction of `dt_eq56` proposed, in `(0, 1]` (default 0.95, the same as the
+    /// controller's standard limits and the 2D/3D limit, so that a limit built by hand or a
+    /// config's `"stability"` object that leaves the safety out keeps it). Eq 56 is already
     /// conservative for frozen particles (it ignores the velocity half of the state: up to
     /// ~8 % below the exact frozen critical step); the margin covers moving particles.
     pub safety: f64,
@@ -50,7 +52,7 @@ impl Default for Tracking {
 impl Default for StabilityConfig {
     fn default() -> Self {
         Self {
-            safety: 0.9,
+            safety: 0.95,
             tol: 1e-6,
             reading: Bound58Reading::Consistent,
             lanczos: LanczosConfig::default(),
