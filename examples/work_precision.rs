@@ -78,7 +78,7 @@ use std::process::ExitCode;
 
 const USAGE: &str =
     "usage: work_precision (--scenario FILE | --mpm88 jelly|fluid) [--json] [--plot FILE.svg] \
-[--alpha A,B,...] [--tol T,U,...] [--reference-alpha A] [--repeat N] [--t-end T]";
+[--alpha A,B,...] [--tol T,U,...] [--reference-alpha A] [--repeat N] [--t-end T] [--staggered-kick]";
 
 /// Command-line options (module docs).
 struct Args {
@@ -91,6 +91,8 @@ struct Args {
     repeat: usize,
     /// Runs to this time instead of the scene's own end time.
     t_end: Option<f64>,
+    /// The 1D reference solver's staggered kick, in every run.
+    staggered_kick: bool,
 }
 
 fn list(name: &str, v: Option<String>) -> Result<Vec<f64>, String> {
@@ -113,6 +115,7 @@ fn parse_args() -> Result<Args, String> {
         reference_alpha: 0.025,
         repeat: 3,
         t_end: None,
+        staggered_kick: false,
     };
     let mut it = std::env::args().skip(1);
     while let Some(arg) = it.next() {
@@ -125,6 +128,7 @@ fn parse_args() -> Result<Args, String> {
                 }
             }
             "--json" => a.json = true,
+            "--staggered-kick" => a.staggered_kick = true,
             "--plot" => a.plot = Some(it.next().ok_or("--plot needs a value")?),
             "--alpha" => a.alphas = list("--alpha", it.next())?,
             "--tol" => a.tols = list("--tol", it.next())?,
@@ -170,10 +174,13 @@ fn main() -> ExitCode {
     };
     let load_before = load();
     let scene = match scene::Scene::open(&args.scenario) {
-        Ok(s) => match args.t_end {
-            Some(t) => s.until(t),
-            None => s,
-        },
+        Ok(mut s) => {
+            s.staggered_kick = args.staggered_kick;
+            match args.t_end {
+                Some(t) => s.until(t),
+                None => s,
+            }
+        }
         Err(e) => {
             eprintln!("error: {e}");
             return ExitCode::from(1);

@@ -36,7 +36,11 @@ use scene::Scene;
 
 /// The controller's errors at each of `tols` against the fixed rule at `alpha_ref`.
 fn controller_errors(path: &str, alpha_ref: f64, tols: &[f64]) -> Vec<Errors> {
-    let scene = Scene::open(path).expect("scene");
+    controller_errors_of(Scene::open(path).expect("scene"), alpha_ref, tols)
+}
+
+/// [`controller_errors`] of a scene already opened.
+fn controller_errors_of(scene: Scene, alpha_ref: f64, tols: &[f64]) -> Vec<Errors> {
     let reference = scene.run(Policy::Fixed(alpha_ref)).expect("reference");
     assert!(reference.failure.is_none(), "{:?}", reference.failure);
     tols.iter()
@@ -89,4 +93,17 @@ fn colliding_disks_error_falls_as_the_tolerance_tightens() {
         &[1e-3, 3e-4, 1e-4, 3e-5, 1e-5],
     );
     assert_monotone(&errs, 3.0);
+}
+
+#[test]
+fn wave_1d_with_the_lag_and_the_staggered_kick_error_falls_as_the_tolerance_tightens() {
+    // 1 000 particles, to t = 0.2 (`scenarios/accuracy/wave_1d_lag.json`): the temporal
+    // limit with the velocity lag (`temporal.lag = 1`, first order: the step follows the
+    // tolerance) and the reference solver's staggered kick (no position drift from the
+    // step changes). Without the two, nothing changes over this range; below it the
+    // reference (its own change 5.5e-5 in velocity) no longer resolves the errors.
+    let mut scene = Scene::open("scenarios/accuracy/wave_1d_lag.json").expect("scene");
+    scene.staggered_kick = true;
+    let errs = controller_errors_of(scene, 0.0125, &[1e-3, 3e-4, 1e-4]);
+    assert_monotone(&errs, 3.5);
 }

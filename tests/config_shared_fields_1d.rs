@@ -76,7 +76,7 @@ const FAILING: &str = failing!();
 
 /// `(changed, base)`: the bodies of two configs `{…}`, the changed one setting the field
 /// against a base where it is consulted.
-const SHARED_CHANGES: [(&str, &str); 27] = [
+const SHARED_CHANGES: [(&str, &str); 28] = [
     (r#""dt_initial": 0.01"#, ""),
     (r#""dt_max": 0.02"#, ""),
     (r#""temporal": {"rtol": 1e-3}, "safety": 0.5"#, ACCURATE),
@@ -111,6 +111,7 @@ const SHARED_CHANGES: [(&str, &str); 27] = [
     (r#""temporal": {"rtol": 1e-3, "atol_rel": 1e-5}"#, ACCURATE),
     (r#""temporal": {"rtol": 1e-3, "atol_v": 0.1}"#, ACCURATE),
     (r#""temporal": {"rtol": 1e-3, "atol_sigma": 0.1}"#, ACCURATE),
+    (r#""temporal": {"rtol": 1e-3, "lag": 1.0}"#, ACCURATE),
     (
         r#""temporal": {"rtol": 0.5, "max_deferred": 0}"#,
         r#""temporal": {"rtol": 0.5}"#,

@@ -43,6 +43,7 @@ fn invalid_values_name_their_field() {
         ),
         (r#"{"temporal": {"rtol": -1.0}}"#, "temporal.rtol"),
         (r#"{"temporal": {"balance": 0.0}}"#, "temporal.balance"),
+        (r#"{"temporal": {"lag": -1.0}}"#, "temporal.lag"),
         (
             r#"{"temporal": {"defer_below": 1.0}}"#,
             "temporal.defer_below",
@@ -250,6 +251,7 @@ fn assemble(
             atol_v: t.3,
             atol_sigma: t.4,
             balance: t.5,
+            lag: t.5,
             max_deferred: t.6,
             defer_below: t.7,
         },

@@ -144,14 +144,17 @@ where
     })
 }
 
-/// The 1D reference solver's run (its own sound-speed limit and 1D controller).
+/// The 1D reference solver's run (its own sound-speed limit and 1D controller), with the
+/// staggered kick when `staggered` (`ReferenceStepper::set_staggered_kick`).
 pub fn run_1d(
     scenario: &mpm_dt::scenario::Scenario,
     policy: Policy,
     base: &ControllerConfig,
+    staggered: bool,
 ) -> Result<EndState, String> {
     let mut s = scenario.build().map_err(|e| e.to_string())?;
     s.provide_summary(true);
+    s.set_staggered_kick(staggered);
     let t_end = scenario.t_end;
     let e0 = s.total_energy();
     let mut failure = None;

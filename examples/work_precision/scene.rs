@@ -31,6 +31,9 @@ pub struct Scene {
     pub t_end: f64,
     /// The scene's shipped fixed step, if it has one.
     pub shipped_dt: Option<f64>,
+    /// Whether the 1D reference solver runs with the staggered kick
+    /// (`ReferenceStepper::set_staggered_kick`; `--staggered-kick`).
+    pub staggered_kick: bool,
 }
 
 enum Kind {
@@ -100,6 +103,7 @@ impl Scene {
             scales: Scales::new(e0, mass, t_end),
             t_end,
             shipped_dt: None,
+            staggered_kick: false,
         })
     }
 
@@ -121,6 +125,7 @@ impl Scene {
             scales: Scales::new(mpm88_energy(&s), mass, scene.t_end),
             t_end: scene.t_end,
             shipped_dt: Some(MPM88_DT),
+            staggered_kick: false,
         }
     }
 
@@ -135,7 +140,7 @@ impl Scene {
     /// Runs the scene under `policy` to its end.
     pub fn run(&self, policy: Policy) -> Result<EndState, String> {
         match &self.kind {
-            Kind::One(s) => run_1d(s, policy, &self.config),
+            Kind::One(s) => run_1d(s, policy, &self.config, self.staggered_kick),
             Kind::Two(s) => self.run_nd::<2>(s, policy),
             Kind::Three(s) => self.run_nd::<3>(s, policy),
             Kind::Mpm88(scene) => {

@@ -49,6 +49,15 @@
 //! next check's second derivative spans the deferred steps
 //! (`span = (dt + dt₋)/2 + gap`). `max_deferred: 0` checks every trial.
 //!
+//! **The velocity lag** (opt-in, [`TemporalErrorConfig::lag`] = `κ_lag`): the USL step
+//! kicks before it drifts (symplectic Euler), so `v_p` lags the synchronised velocity by
+//! `dt/2 · a_p` ([`crate::synchronized_velocity`], its (S1)): a first-order error that
+//! eqs 20, 23 and 28 do not contain. With the lag on, the velocity sum also holds
+//! `(κ_lag dt/2 |a_p| / w_v,p)²`, `a_p = Σ_i S_ip a_i` of the trial state (eq 21, the next
+//! kick's; gathered from the nodal field, so that a solver's staggered kick does not
+//! change it). The 2D/3D estimator takes `a_p = (v_p^{n+1} − v_p^n)/dt` (eq 22) instead,
+//! from the particle arrays it already reads.
+//!
 //! Interpretations, documented here because the paper leaves them open:
 //! * Eq 26 (`F`) is not measured separately: for the elastic laws `σ` is a function of
 //!   `F`, so its error is already in `le_σ`.
@@ -65,7 +74,7 @@
 //!   `rtol` is the knob for long runs.
 
 use super::config::ConfigError;
-use super::temporal_kernels::{dispatch_rates, dispatch_sums, Fields, Terms};
+use super::temporal_kernels::{dispatch_rates, dispatch_sums, lag_sum, Fields, Terms};
 use crate::dimension::Dim;
 use crate::limit::LimitError;
 use crate::stepper::View;
@@ -184,6 +193,24 @@ impl RateKernels {
         Ok((accel, rate))
     }
 
+    /// The trial state's particle accelerations `a_p = Σ_i S_ip a_i` at `xⁿ⁺¹` (eq 21):
+    /// the next kick's, whose half step is the state's velocity lag. Read from the nodal
+    /// field, not from `(vⁿ⁺¹ − vⁿ)/dt`, so that it does not depend on how the solver
+    /// kicked (a staggered kick spans `(dt₋ + dt)/2`).
+    fn next_kick(after: &View<'_>) -> Result<Vec<f64>, LimitError> {
+        let n = after.n_particles();
+        if after.weights.n_particles() != n
+            || after.node_acceleration.len() != after.weights.n_nodes()
+        {
+            return Err(other("lag: inconsistent view sizes".to_string()));
+        }
+        let mut a = vec![0.0; n];
+        after
+            .weights
+            .gather(WeightKind::S, after.node_acceleration, &mut a);
+        Ok(a)
+    }
+
     /// Spatial local errors of a step of size `dt` from `view`, per particle:
     /// `dt |Σ_i S_ip Ea_i|` (eqs 20, 23 with eq 33) and `|leσ_p|` (eq 44).
     fn spatial(view: &View<'_>, dt: f64) -> Result<(Vec<f64>, Vec<f64>), LimitError> {
@@ -249,8 +276,7 @@ impl RateKernels {
         let v_scale = sc.v.max(sc.v_from_s2.sqrt());
         let sigma_scale = sc.sigma.max(sc.s_from_v2.sqrt());
         let (accel, stress_rate) = (&out.accel[..n], &out.stress_rate[..n]);
-        // Second time derivatives d²u/dt² = (x_p − y_p)/span.
-        let nodal;
+        let nodal; // Second time derivatives d²u/dt² = (x_p − y_p)/span.
         let (xv, yv, xs, ys, span): (&[f64], &[f64], &[f64], &[f64], f64) = match shared.history {
             Some(h) if h.accel.len() == n && h.stress_rate.len() == n => (
                 accel,
@@ -279,27 +305,29 @@ impl RateKernels {
             }
             None => None,
         };
-        // Pass 2: the weighted sums of the local errors dt²/2 · d²u/dt² (`temporal_kernels::sums`).
-        let (sum_v, sum_s) = dispatch_sums(
-            Terms {
-                xv,
-                yv,
-                xs,
-                ys,
-                v0,
-                v1,
-                s0,
-                s1,
-                spatial: spatial.as_ref().map(|(sv, ss)| (&sv[..], &ss[..])),
-                c_span: 0.5 * dt * dt / span,
-                atol_v: c.atol_v,
-                atol_sigma: c.atol_sigma,
-                abs_v: c.atol_rel() * weight_v,
-                abs_s: c.atol_rel() * weight_s,
-                rtol: c.rtol,
-            },
-            n,
-        );
+        // Pass 2: the weighted sums of the local errors dt²/2 · d²u/dt² (`temporal_kernels::sums`),
+        // then the velocity lag κ_lag·dt/2·|a_p| (`TemporalErrorConfig::lag`) when it is on.
+        let terms = Terms {
+            xv,
+            yv,
+            xs,
+            ys,
+            v0,
+            v1,
+            s0,
+            s1,
+            spatial: spatial.as_ref().map(|(sv, ss)| (&sv[..], &ss[..])),
+            c_span: 0.5 * dt * dt / span,
+            atol_v: c.atol_v,
+            atol_sigma: c.atol_sigma,
+            abs_v: c.atol_rel() * weight_v,
+            abs_s: c.atol_rel() * weight_s,
+            rtol: c.rtol,
+        };
+        let (mut sum_v, sum_s) = dispatch_sums(&terms, n);
+        if let Some(kappa) = c.lag {
+            sum_v += lag_sum(&terms, &Self::next_kick(after)?, kappa * 0.5 * dt, n);
+        }
         let nf = n.max(1) as f64;
         let dsm = ((sum_v + sum_s) / (2.0 * nf)).sqrt();
         let dsm_v = (sum_v / nf).sqrt();

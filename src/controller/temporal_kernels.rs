@@ -111,13 +111,13 @@ pub(super) fn dispatch_rates(
 
 /// Pass 2 in the best build the CPU supports: `(Σ_p (le_v,p/w_v,p)², Σ_p (le_σ,p/w_σ,p)²)`
 /// over the first `n` particles.
-pub(super) fn dispatch_sums(t: Terms<'_>, n: usize) -> (f64, f64) {
+pub(super) fn dispatch_sums(t: &Terms<'_>, n: usize) -> (f64, f64) {
     #[cfg(target_arch = "x86_64")]
     if crate::cpu::has_avx2() {
         // SAFETY: `sums_avx2` only requires AVX2, which `has_avx2` detected on this CPU.
-        return unsafe { sums_avx2(&t, n) };
+        return unsafe { sums_avx2(t, n) };
     }
-    sums(&t, n)
+    sums(t, n)
 }
 
 /// [`rates_and_scales`] compiled for AVX2.
@@ -291,4 +291,19 @@ fn sums(t: &Terms<'_>, n: usize) -> (f64, f64) {
         start += len;
     }
     (sum_v, sum_s)
+}
+
+/// `Σ_p (c_lag |a_p| / w_v,p)²` over the first `n` particles, in particle order: the
+/// velocity lag `κ_lag dt/2 |a_p|` of [`crate::temporal::TemporalErrorConfig::lag`]
+/// (`c_lag = κ_lag dt/2`, `a` the trial state's `Σ_i S_ip a_i`), weighed as pass 2 weighs
+/// the velocity (the same `w_v,p`, bit for bit). A plain loop: it runs only when the lag is on.
+pub(super) fn lag_sum(t: &Terms<'_>, a: &[f64], c_lag: f64, n: usize) -> f64 {
+    let (xv, v0, v1) = (&a[..n], &t.v0[..n], &t.v1[..n]);
+    let mut sum = 0.0;
+    for p in 0..n {
+        let sv = t.spatial.map_or(0.0, |(sv, _)| sv[p]);
+        let wv = t.atol_v + sv + t.abs_v + t.rtol * v0[p].abs().max(v1[p].abs());
+        sum += term(c_lag * xv[p].abs(), wv);
+    }
+    sum
 }

@@ -249,6 +249,8 @@ fn nodal_rates<const D: usize>(view: &SweepFields<'_, D>, p: usize) -> (Vector<D
 pub(super) struct Weights {
     pub rtol: f64,
     pub abs: (f64, f64),
+    /// `κ_lag dt/2` of the velocity lag (`TemporalErrorConfig::lag`), 0 when off.
+    pub lag: f64,
 }
 
 /// Where a sweep writes the rates of particles `start..start + accel.len()`.
@@ -421,6 +423,7 @@ fn sweep_range<const D: usize>(
         if let Some(Weights {
             rtol,
             abs: (abs_v, abs_s),
+            lag,
         }) = weights
         {
             let accel = (v1 - v0) * inv_dt;
@@ -450,7 +453,14 @@ fn sweep_range<const D: usize>(
                     ((a1 - a0) * inv_dt, (r1 - r0) * inv_dt)
                 }
             };
-            acc.sums[0] += term(d2v.norm_squared(), abs_v + rtol * v_hat2.sqrt());
+            let w_v = abs_v + rtol * v_hat2.sqrt();
+            acc.sums[0] += term(d2v.norm_squared(), w_v);
+            if lag > 0.0 {
+                // The velocity lag (κ_lag dt/2 |a_p| / w_v)², in the velocity part.
+                let a2 = accel.norm_squared();
+                let r = lag * lag * a2 / (w_v * w_v).max(f64::MIN_POSITIVE);
+                acc.sums[0] += if a2 == 0.0 { 0.0 } else { r };
+            }
             acc.sums[1] += term(d2s.norm_squared(), abs_s + rtol * s_hat2.sqrt());
         }
         acc.count += 1;

@@ -31,6 +31,18 @@ pub struct TemporalErrorConfig {
     /// the spatial one where that is larger than the plain tolerance (Steffen, Kirby &
     /// Berzins 2010: a temporal error far below the spatial one buys nothing).
     pub balance: Option<f64>,
+    /// The **velocity lag** (default `None`: off). When set to `κ_lag`, the velocity part
+    /// of `dsm` also holds, per particle, `κ_lag · dt/2 · |a_p|` with `a_p = (v_p^{n+1} −
+    /// v_p^n)/dt = Σ_i S_ip a_i` (eqs 21–22), weighed by the same `w_v,p` as `le_v,p`:
+    /// `dsm_v² = (1/N) Σ_p [(le_v,p/w_v,p)² + (κ_lag dt/2 |a_p| / w_v,p)²]`. The USL step is
+    /// symplectic Euler: `v_p` lags the synchronised velocity (`v_p + dt/2 · a_p`,
+    /// [`crate::synchronized_velocity`]) by `dt/2 · |a_p|`, an error of **first** order in
+    /// `dt` that the second-order local errors of eqs 20, 23 and 28 do not contain, and
+    /// that dominates the error of a well-resolved smooth motion (docs/accuracy.md).
+    /// Being first order, it makes the step proportional to the tolerance where it binds.
+    /// A velocity part that includes it is taken as impulsive by
+    /// [`super::non_smooth`] only when a retry cuts it by less than `√q` (instead of `q`).
+    pub lag: Option<f64>,
     /// Trials in a row whose check may be deferred while the error is far below its
     /// tolerance (default 8; [`super::deferral`]). 0 checks every trial, as the paper's
     /// controller does.
@@ -49,6 +61,7 @@ impl Default for TemporalErrorConfig {
             atol_v: 0.0,
             atol_sigma: 0.0,
             balance: None,
+            lag: None,
             max_deferred: DEFAULT_MAX_DEFERRED,
             defer_below: 0.1,
         }
@@ -74,6 +87,14 @@ impl TemporalErrorConfig {
         if let Some(k) = self.balance {
             check(
                 "temporal.balance",
+                k,
+                k.is_finite() && k > 0.0,
+                "finite and > 0",
+            )?;
+        }
+        if let Some(k) = self.lag {
+            check(
+                "temporal.lag",
                 k,
                 k.is_finite() && k > 0.0,
                 "finite and > 0",

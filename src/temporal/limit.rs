@@ -372,7 +372,10 @@ where
         let judged = self.judge_trial(before, after, dt)?;
         // Judged without the parts that do not fall with the step; the deferral of the
         // next checks follows the estimate as it is (no deferral while a part is out).
-        let e = self.non_smooth.judge(before.time(), dt, &judged.estimate);
+        let lagged = self.config.lag.is_some();
+        let e = self
+            .non_smooth
+            .judge_lagged(before.time(), dt, &judged.estimate, lagged);
         if let Some(old) = self.judged.replace(judged).and_then(|j| j.rates) {
             self.spare = Some(old);
         }

@@ -70,8 +70,16 @@ pub struct NonSmooth {
 impl NonSmooth {
     /// The estimate to judge the trial from time `t` with step `dt` by: `e` itself where no
     /// part is excluded (bit for bit), else `e` with the excluded parts left out of `dsm`.
-    #[allow(clippy::needless_range_loop)] // `k` indexes five per-part arrays
     pub fn judge(&mut self, t: f64, dt: f64, e: &Estimate) -> Estimate {
+        self.judge_lagged(t, dt, e, false)
+    }
+
+    /// [`Self::judge`] where the velocity part holds the first-order velocity lag
+    /// (`lagged`, [`super::TemporalErrorConfig::lag`]): a smooth velocity part then falls
+    /// by `q` to `q²` on a retry, so it is taken as impulsive only when it fell by less
+    /// than `√q` (an impulse does not fall at all).
+    #[allow(clippy::needless_range_loop)] // `k` indexes five per-part arrays
+    pub fn judge_lagged(&mut self, t: f64, dt: f64, e: &Estimate, lagged: bool) -> Estimate {
         let parts = [e.dsm_v, e.dsm_sigma];
         if e.dsm.is_nan() {
             self.rejected = None;
@@ -88,8 +96,9 @@ impl NonSmooth {
         if let Some(r) = self.rejected.filter(|r| r.t == t.to_bits() && dt < r.dt) {
             let q = dt / r.dt;
             if q <= TESTED_SHRINK {
+                let slowest = [if lagged { q.sqrt() } else { q }, q];
                 for k in 0..2 {
-                    if parts[k] > 1.0 && parts[k] >= q * r.parts[k] {
+                    if parts[k] > 1.0 && parts[k] >= slowest[k] * r.parts[k] {
                         self.excluded[k] = true;
                         self.found_at[k] = r.dt;
                         self.checks_left[k] = EXCLUDED_CHECKS;
@@ -161,6 +170,25 @@ mod tests {
         let passed = estimate(0.9, 0.8);
         assert_eq!(n.judge(0.8, 1.0, &passed), passed);
         assert_eq!(n.metric(), None);
+    }
+
+    #[test]
+    fn a_lagged_velocity_part_that_falls_like_the_step_is_kept() {
+        let mut n = NonSmooth::default();
+        n.judge_lagged(0.0, 1.0, &estimate(4.0, 0.5), true);
+        // First order at q = 0.5 (4.0 → 2.0): kept with the lag, excluded without.
+        let first_order = estimate(2.0, 0.1);
+        assert_eq!(n.judge_lagged(0.0, 0.5, &first_order, true), first_order);
+        assert_eq!(n.metric(), None);
+        let mut plain = NonSmooth::default();
+        plain.judge(0.0, 1.0, &estimate(4.0, 0.5));
+        plain.judge(0.0, 0.5, &first_order);
+        assert_eq!(plain.metric(), Some(1.0));
+        // An impulse (no fall) is excluded either way.
+        let mut n = NonSmooth::default();
+        n.judge_lagged(0.0, 1.0, &estimate(4.0, 0.5), true);
+        n.judge_lagged(0.0, 0.5, &estimate(3.9, 0.1), true);
+        assert_eq!(n.metric(), Some(1.0));
     }
 
     #[test]

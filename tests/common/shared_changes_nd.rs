@@ -35,7 +35,7 @@ pub const UNSTABLE: &str = unstable!();
 ///
 /// `(changed, base)`: the bodies of two configs `{…}`, the changed one setting the field
 /// against a base where it is consulted.
-pub const SHARED_CHANGES: [(&str, &str); 24] = [
+pub const SHARED_CHANGES: [(&str, &str); 25] = [
     (r#""dt_initial": 0.01"#, ""),
     (r#""dt_max": 0.02"#, ""),
     (r#""temporal": {"rtol": 1e-3}, "safety": 0.5"#, ACCURATE),
@@ -70,6 +70,7 @@ pub const SHARED_CHANGES: [(&str, &str); 24] = [
     (r#""temporal": {"rtol": 1e-3, "atol_rel": 1e-5}"#, ACCURATE),
     (r#""temporal": {"rtol": 1e-3, "atol_v": 0.1}"#, ACCURATE),
     (r#""temporal": {"rtol": 1e-3, "atol_sigma": 0.1}"#, ACCURATE),
+    (r#""temporal": {"rtol": 1e-3, "lag": 1.0}"#, ACCURATE),
     (
         r#""temporal": {"rtol": 0.5, "max_deferred": 0}"#,
         r#""temporal": {"rtol": 0.5}"#,

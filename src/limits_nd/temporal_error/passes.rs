@@ -76,8 +76,9 @@ impl<const D: usize> RateSweeps<D> {
 
     /// The weights `w_u = atol_u + atol_rel · s_u + rtol · û_p` for the field scales
     /// `(s_v, s_σ) = (sv, ss)`.
-    fn weights(c: &TemporalErrorConfig, sv: f64, ss: f64) -> Option<Weights> {
+    fn weights(c: &TemporalErrorConfig, sv: f64, ss: f64, dt: f64) -> Option<Weights> {
         Some(Weights {
+            lag: c.lag.map_or(0.0, |k| k * 0.5 * dt),
             rtol: c.rtol,
             abs: (
                 c.atol_v + c.atol_rel() * sv,
@@ -115,7 +116,7 @@ impl<const D: usize> RateSweeps<D> {
             after,
             dt,
             pair,
-            Self::weights(shared.config, prev_v, prev_s),
+            Self::weights(shared.config, prev_v, prev_s, dt),
             out,
         );
         let finite = first.finite;
@@ -130,7 +131,7 @@ impl<const D: usize> RateSweeps<D> {
                 after,
                 dt,
                 pair,
-                Self::weights(shared.config, sv, ss),
+                Self::weights(shared.config, sv, ss, dt),
                 None,
             )
         };

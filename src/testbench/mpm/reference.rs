@@ -63,6 +63,13 @@ pub struct ReferenceStepper {
     summary: bool,
     /// Whether the summaries carry the element bound ([`Stepper::provide_element_bound`]).
     bound: bool,
+    /// Whether a step after a change of step kicks over `(dt₋ + dt)/2`
+    /// ([`ReferenceStepper::set_staggered_kick`]).
+    staggered_kick: bool,
+    /// The last accepted step (`None` before the first, and after a restart).
+    last_dt: Option<f64>,
+    /// The step of the pending trial.
+    trial_dt: f64,
 }
 
 impl ReferenceStepper {
@@ -106,6 +113,7 @@ impl ReferenceStepper {
                 stiffness: false,
                 summary: false,
                 bound: false,
+                kick: None,
             };
             deposit_state(&ctx, &mut workspace, &mut committed);
         }
@@ -132,6 +140,9 @@ impl ReferenceStepper {
             stiffness: false,
             summary: false,
             bound: false,
+            staggered_kick: false,
+            last_dt: None,
+            trial_dt: 0.0,
         })
     }
 
@@ -262,7 +273,24 @@ impl ReferenceStepper {
             stiffness: self.stiffness,
             summary: self.summary,
             bound: self.bound,
+            kick: None,
         }
+    }
+
+    /// Opt-in: the **staggered kick** (default off). The USL step (eqs 19, 22 then 24–29)
+    /// is symplectic Euler: it kicks `vₚ` with `dt a_p`, then drifts `x` with the new
+    /// velocity, so `vₚ` is the velocity half a step behind the state, at `tⁿ − dt₋/2`
+    /// (leapfrog; [`crate::synchronized_velocity`]). After a change of step the kick that
+    /// carries it from `tⁿ − dt₋/2` to `tⁿ + dt/2` spans `(dt₋ + dt)/2`, not `dt`: with
+    /// `dt`, each change `dt − dt₋` leaves a velocity error `(dt − dt₋)/2·a_p` that the
+    /// positions then integrate — the position drift of a controlled run on a smooth wave
+    /// (docs/accuracy.md, "The lag"). On, the kicks of eqs 19 and 22 use
+    /// `(dt₋ + dt)/2` (`dt₋` the last accepted step; the first step after construction
+    /// or a restart kicks with `dt`); `F`, `σ` and `x` (eqs 25–29) still advance by `dt`.
+    /// At a fixed step `(dt + dt)/2 == dt` in floating point: the run is the same bit for
+    /// bit as with it off.
+    pub fn set_staggered_kick(&mut self, on: bool) {
+        self.staggered_kick = on;
     }
 
     fn state_view<'a>(&'a self, s: &'a State) -> View<'a> {
@@ -315,7 +343,12 @@ impl Stepper for ReferenceStepper {
             std::mem::take(&mut self.workspace),
             std::mem::take(&mut self.trial),
         );
-        let result = advance(&self.ctx(), &mut workspace, &self.committed, &mut trial, dt);
+        self.trial_dt = dt;
+        let mut ctx = self.ctx();
+        if self.staggered_kick {
+            ctx.kick = self.last_dt.map(|prev| 0.5 * (prev + dt));
+        }
+        let result = advance(&ctx, &mut workspace, &self.committed, &mut trial, dt);
         (self.workspace, self.trial) = (workspace, trial);
         match result {
             Ok(()) => {
@@ -362,6 +395,7 @@ impl Stepper for ReferenceStepper {
         }
         std::mem::swap(&mut self.committed, &mut self.trial);
         self.trial_pending = false;
+        self.last_dt = Some(self.trial_dt);
         Ok(())
     }
 

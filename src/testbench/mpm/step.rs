@@ -108,6 +108,9 @@ pub(crate) struct Ctx<'a> {
     pub summary: bool,
     /// Whether that summary carries the element bound (GIMP only; `element_bound.rs`).
     pub bound: bool,
+    /// The kick of this step when it differs from the drift `dt`: `(dt₋ + dt)/2` of the
+    /// staggered kick ([`super::ReferenceStepper::set_staggered_kick`]); `None` kicks with `dt`.
+    pub kick: Option<f64>,
 }
 
 /// Scratch arrays on the extended lattice, allocated once per solver.
@@ -401,11 +404,12 @@ pub(crate) fn advance(
     dt: f64,
 ) -> Result<(), Failure> {
     // 1. Grid pass (eq 19) onto the extended lattice.
+    let kick = ctx.kick.unwrap_or(dt);
     for (e, g) in ws.gather.iter_mut().enumerate() {
         *g = match ext_to_storage(ctx.grid, e) {
             Some(i) => {
                 let a = from.node_acceleration[i];
-                [a, from.node_velocity[i] + dt * a]
+                [a, from.node_velocity[i] + kick * a]
             }
             None => [0.0, 0.0],
         };

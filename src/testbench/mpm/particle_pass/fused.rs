@@ -112,7 +112,8 @@ where
         // Gather at xⁿ (eqs 21, 24): stencils (vectorised), then the indexed sums.
         stencils.fill(&stencil, x0, width, origin);
         gather_block(&stencils, gather, max_base, len, &mut a_p, &mut grad_v);
-        let (rule, rates) = ((&update_stress, dt, span), (&a_p, &grad_v));
+        let kick = ctx.kick.unwrap_or(dt);
+        let (rule, rates) = ((&update_stress, dt, kick, span), (&a_p, &grad_v));
         let trial = (&mut *x1, &mut *v1, &mut *s1, &mut *f1);
         update_block::<_, PERIODIC>(rule, (x0, v0, s0, f0), rates, trial, (&mut y, &mut flags));
         let particles = (
@@ -192,7 +193,7 @@ type FieldsMut<'a> = (&'a mut [f64], &'a mut [f64], &'a mut [f64], &'a mut [f64]
 /// `grad_v`, and the flags raised.
 #[inline(always)]
 fn update_block<Up: Fn(f64, f64, f64) -> f64, const PERIODIC: bool>(
-    (update_stress, dt, span): (&Up, f64, Span),
+    (update_stress, dt, kick, span): (&Up, f64, f64, Span),
     (x0, v0, s0, f0): Fields<'_>,
     (a_p, grad_v): (&[f64; BLOCK], &[f64; BLOCK]),
     (x1, v1, s1, f1): FieldsMut<'_>,
@@ -211,7 +212,7 @@ fn update_block<Up: Fn(f64, f64, f64) -> f64, const PERIODIC: bool>(
     } = *flags;
     let mut wrap = false;
     for i in 0..len {
-        let v_new = v0[i] + dt * a_p[i];
+        let v_new = v0[i] + kick * a_p[i];
         let dt_l = dt * grad_v[i];
         let f_new = f0[i] * (1.0 + dt_l);
         let s_new = update_stress(s0[i], f_new, dt_l);
