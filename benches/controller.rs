@@ -9,7 +9,7 @@
 //! 10³ … 10⁶ particles. The controller is `Controller::standard` with the default
 //! configuration (as `examples/compare.rs` runs it): `SoundSpeed` with `α = 1` as a cap,
 //! `Stability` (eq 56, safety 0.95, default certified λmax tracking), the temporal error limit and the
-//! growth monitor. The per-limit sub-benches use `Stability` at its own default safety 0.9
+//! growth monitor. The per-limit sub-benches use `Stability` at its own default safety 0.95
 //! (the safety does not change its cost).
 //!
 //! Groups:

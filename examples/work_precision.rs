@@ -174,6 +174,10 @@ fn main() -> ExitCode {
     };
     let load_before = load();
     let scene = match scene::Scene::open(&args.scenario) {
+        Ok(s) if args.staggered_kick && !s.is_one_d() => {
+            eprintln!("error: --staggered-kick: only the 1D reference solver has a staggered kick");
+            return ExitCode::from(2);
+        }
         Ok(mut s) => {
             s.staggered_kick = args.staggered_kick;
             match args.t_end {

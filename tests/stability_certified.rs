@@ -168,7 +168,7 @@ fn bracket_follows_a_linear_hat_collapse() {
 fn the_stability_limit_follows_the_exact_eq56_step_through_a_collapse() {
     // The default `Stability` (certified tracking) on the collapsing linear-hat layout: every
     // certified proposal is at most `safety · dt_eq56` of its own state, every served one at
-    // most 1 % above it (measured: 0.11 %, inside the safety factor's 10 %), and none more
+    // most 1 % above it (measured: 0.11 %, inside the safety factor's 5 %), and none more
     // than 1 % below it.
     let cells = 32;
     let (start, end) = collapse_layouts(cells);

@@ -68,3 +68,32 @@ fn after_a_change_of_step_the_kick_spans_the_mean_of_the_two_steps() {
         }
     }
 }
+
+#[test]
+fn a_checkpoint_after_a_change_of_step_continues_bit_for_bit() {
+    use mpm_dt::mpm::{ReferenceStepper, SolverCheckpoint};
+    let mut s = Scenario::from_json(BAR).unwrap().build().unwrap();
+    s.set_staggered_kick(true);
+    for dt in [1e-3, 1e-3, 2e-3] {
+        s.try_step(dt).unwrap();
+        s.accept().unwrap();
+    }
+    let json = serde_json::to_string(&s.checkpoint()).unwrap();
+    let saved: SolverCheckpoint = serde_json::from_str(&json).unwrap();
+    assert!(saved.staggered_kick);
+    assert_eq!(saved.last_dt, Some(2e-3));
+    let mut restored = ReferenceStepper::from_checkpoint(saved).unwrap();
+    for solver in [&mut s, &mut restored] {
+        solver.try_step(3e-3).unwrap();
+        solver.accept().unwrap();
+    }
+    let bits = |s: &ReferenceStepper| -> Vec<u64> {
+        let v = s.view();
+        v.x.iter().chain(v.v).map(|a| a.to_bits()).collect()
+    };
+    assert_eq!(bits(&s), bits(&restored));
+    // A checkpoint's last step must be a step.
+    let mut bad = s.checkpoint();
+    bad.last_dt = Some(f64::NAN);
+    assert!(ReferenceStepper::from_checkpoint(bad).is_err());
+}

@@ -43,6 +43,13 @@ enum Kind {
     Mpm88(mpm88::Scene),
 }
 
+impl Scene {
+    /// Whether the scene runs the 1D reference solver (the only one with a staggered kick).
+    pub fn is_one_d(&self) -> bool {
+        matches!(self.kind, Kind::One(_))
+    }
+}
+
 fn mpm88_energy(s: &MlsMpm) -> f64 {
     let (k, e, p) = s.energies();
     k + e + p

@@ -32,8 +32,9 @@ pub struct TemporalErrorConfig {
     /// Berzins 2010: a temporal error far below the spatial one buys nothing).
     pub balance: Option<f64>,
     /// The **velocity lag** (default `None`: off). When set to `κ_lag`, the velocity part
-    /// of `dsm` also holds, per particle, `κ_lag · dt/2 · |a_p|` with `a_p = (v_p^{n+1} −
-    /// v_p^n)/dt = Σ_i S_ip a_i` (eqs 21–22), weighed by the same `w_v,p` as `le_v,p`:
+    /// of `dsm` also holds, per particle, `κ_lag · dt/2 · |a_p|` — in 1D `a_p = Σ_i S_ip a_i`
+    /// of the trial state (eq 21, the next kick's acceleration, gathered from the nodal
+    /// field), in 2D/3D `a_p = (v_p^{n+1} − v_p^n)/dt` (eq 22, the step's) —, weighed by the same `w_v,p` as `le_v,p`:
     /// `dsm_v² = (1/N) Σ_p [(le_v,p/w_v,p)² + (κ_lag dt/2 |a_p| / w_v,p)²]`. The USL step is
     /// symplectic Euler: `v_p` lags the synchronised velocity (`v_p + dt/2 · a_p`,
     /// [`crate::synchronized_velocity`]) by `dt/2 · |a_p|`, an error of **first** order in

@@ -16,7 +16,9 @@
 //! a trial this limit rejected is retried from the same state with a step shorter by
 //! `q = dt/dt_rejected ≤ 0.7`, each part of the norm, `dsm_v` and `dsm_σ`, should have
 //! fallen by about `q²`. A part that is still above 1 and fell by less than `q` (slower
-//! than first order) is not a truncation error: it is **excluded** from the norm,
+//! than first order; less than `√q` for a velocity part that holds the first-order
+//! velocity lag, `TemporalErrorConfig::lag`, which itself falls by `q`) is not a
+//! truncation error: it is **excluded** from the norm,
 //! `dsm = sqrt(Σ_{kept parts} dsm_u² / 2)`, and stays excluded on the following checks
 //! until it passes on its own (`dsm_u ≤ 1`) at a step at least as long as the rejected
 //! one it was found at — the contact has ended (a short step passes without the contact

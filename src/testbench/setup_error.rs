@@ -28,6 +28,13 @@ pub enum SetupError {
         /// The offending time.
         value: f64,
     },
+    /// A checkpoint's last accepted step (the staggered kick's `dt₋`) is not a positive
+    /// finite number (1D).
+    #[error("invalid checkpoint last step dt = {value}: must be positive and finite")]
+    LastStep {
+        /// The offending step.
+        value: f64,
+    },
     /// There are no particles.
     #[error("no particles")]
     NoParticles,
