@@ -28,10 +28,17 @@
 //! it. A rise of `B` raises the estimate in proportion (conservative where the ratio holds;
 //! a mode that localises as `B` rises — a splash — makes the ratio fall, and a rise beyond
 //! `drift` refreshes); a fall of `B` leaves it where it was (never below `λ_L·r`) until a
-//! refresh. Refreshes also come after `bound_age` proposals (the cadence of SUNDIALS'
-//! LSRKStep, which re-estimates every 25 steps), and from the parent's mass, diagonal and
-//! moduli guards, whose thresholds are raised to `drift` here (their growth scales the
-//! estimate up to it).
+//! refresh. Refreshes also come from the parent's mass, diagonal and moduli guards, whose
+//! thresholds are raised to `drift` here (their growth scales the estimate up to it).
+//! The calibration serves `bound_age` proposals after a refresh (50; SUNDIALS' LSRKStep
+//! re-estimates every 25 steps): from then on, until the next refresh, the limit proposes
+//! as without it — the cached value times `max(r, s)`, `s` the last calibrated scale
+//! `B/B_L` (no longer followed), with the parent's motion guard reading the positions and
+//! its thresholds at their own values — and a refresh comes from that guard (a particle
+//! moved `refresh_cells`, the moduli or a light node's diagonal grew) or after `max_age`
+//! proposals (200). It is not a refresh at `bound_age`: on the 10⁵-particle 2D GIMP wave
+//! of `benches/controller_nd.rs` proposal 99 after a refresh still steps on its cached
+//! value.
 //!
 //! **What it assumes.** `B/λ` changes only where `B` changes. That is an interpretation,
 //! not a theorem: `λmax` of a uniform layout varies with the particles' offset in their
