@@ -85,21 +85,13 @@ impl TemporalErrorConfig {
         ] {
             check(field, v, v.is_finite() && v >= 0.0, "finite and >= 0")?;
         }
-        if let Some(k) = self.balance {
-            check(
-                "temporal.balance",
-                k,
-                k.is_finite() && k > 0.0,
-                "finite and > 0",
-            )?;
-        }
-        if let Some(k) = self.lag {
-            check(
-                "temporal.lag",
-                k,
-                k.is_finite() && k > 0.0,
-                "finite and > 0",
-            )?;
+        for (field, k) in [
+            ("temporal.balance", self.balance),
+            ("temporal.lag", self.lag),
+        ] {
+            if let Some(k) = k {
+                check(field, k, k.is_finite() && k > 0.0, "finite and > 0")?;
+            }
         }
         check(
             "temporal.defer_below",
